@@ -1,0 +1,29 @@
+# Two entry points for a fresh machine with Python 3.11 and pip:
+#   make study   -> set up .venv, run the default study end to end
+#   make test    -> set up .venv, run the test suite
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+CORES ?= 2
+
+.PHONY: study test bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+study: $(STAMP)
+	$(BIN)/snakemake --profile workflow/profiles/default --cores $(CORES)
+	$(BIN)/snakemake --profile workflow/profiles/default --cores $(CORES) --report results/default/report.html
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q -n $(CORES) tests
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run.py
+
+clean:
+	rm -rf $(VENV) results .snakemake

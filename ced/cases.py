@@ -1,0 +1,162 @@
+"""From normalized scenes to batched case parameters: family, drive, time grid, mass properties.
+
+A *batch* is a set of cases that share a structure (mechanism type, number of steps, output
+stations, discretization), so that every array has leading dimensions (case, step) and the
+solvers run vectorized across cases.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import kinematics
+from .dynamics import BodyProperties
+from .mechanism import classify, input_limits, topology
+
+__all__ = ["Batch", "make_batch", "structure_key", "case_family", "time_grid"]
+
+
+def case_family(scene: dict) -> str:
+    """Family of the scene's mechanism (Grashof class, ``slider_crank`` or ``single_link``)."""
+    mech = scene["mechanism"]
+    if mech["type"] == "four_bar":
+        return classify(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
+    return mech["type"]
+
+
+def time_grid(scene: dict) -> tuple[int, float]:
+    """Number of steps and step size (s) of a scene: revolutions × steps per revolution steps
+    of one input period 2π/Ω each divided evenly."""
+    t = scene["time"]
+    n_steps = int(round(t["revolutions"] * t["steps_per_revolution"]))
+    h = 2.0 * math.pi / scene["drive"]["speed"] / t["steps_per_revolution"]
+    return n_steps, h
+
+
+def structure_key(scene: dict) -> tuple:
+    """Scenes with equal keys can be solved in one vectorized batch."""
+    n_steps, _ = time_grid(scene)
+    disc = scene["discretization"]
+    return (
+        scene["mechanism"]["type"],
+        n_steps,
+        scene["outputs"]["every"],
+        scene["outputs"]["stations"],
+        repr(disc),
+        tuple(link["flexible"] for link in scene["links"].values()),
+        repr(scene["effects"]),
+        repr(scene["time"]),
+        repr(scene.get("modal")),
+    )
+
+
+@dataclass
+class Batch:
+    """Per-case parameters of a batch of structurally identical scenes."""
+
+    scenes: list[dict]
+    families: list[str]
+    mechanism_type: str
+    n_steps: int
+    step_size: np.ndarray  # (case,) s
+    speed: np.ndarray  # (case,) rad/s
+    initial_angle: np.ndarray  # (case,) rad: θ0, or θ_mid for an oscillating input
+    amplitude: np.ndarray  # (case,) rad, NaN for a rotating input
+    branch: np.ndarray  # (case,) ±1
+    lengths: dict[str, np.ndarray] = field(default_factory=dict)  # mechanism block, m
+    bodies: BodyProperties | None = None
+    gravity: np.ndarray | None = None  # (case, 2) m/s²
+
+    @property
+    def size(self) -> int:
+        return len(self.scenes)
+
+    def time(self) -> np.ndarray:
+        """(case, step) s."""
+        return self.step_size[:, None] * np.arange(self.n_steps + 1)[None, :]
+
+    def rigid_motion(self) -> kinematics.RigidMotion:
+        motion = kinematics.input_motion(self.time(), self.speed, self.initial_angle, self.amplitude)
+        L = self.lengths
+        if self.mechanism_type == "four_bar":
+            return kinematics.four_bar(
+                L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch)
+        if self.mechanism_type == "slider_crank":
+            return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion, self.branch)
+        return kinematics.single_link(L["length"], motion)
+
+
+_LENGTH_KEYS = {
+    "four_bar": ("ground", "crank", "coupler", "rocker"),
+    "slider_crank": ("crank", "rod", "offset"),
+    "single_link": ("length",),
+}
+
+
+def _drive(scene: dict, family: str) -> tuple[float, float]:
+    """(initial angle, amplitude) of the input: rotation from θ0, or θ_mid + A sin(Ωt) with A a
+    fraction of the feasible half-range for rocker-input families (DESIGN §3)."""
+    drive, mech = scene["drive"], scene["mechanism"]
+    if mech["type"] != "four_bar":
+        return drive["initial_angle"], math.nan
+    limits = input_limits(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
+    if limits.full_rotation:
+        return drive["initial_angle"], math.nan
+    return limits.mid, drive["amplitude"] * limits.half_range
+
+
+def _body_properties(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyProperties:
+    """Link mass ρAL and centroidal inertia mL²/12 + ρL·I_section (the section term is the
+    in-plane second moment, e.g. m h²/12 for a rectangle of in-plane height h)."""
+    topo = topology(scenes[0]["mechanism"]["type"])
+    mass = np.zeros((len(scenes), len(topo.links)))
+    inertia = np.zeros_like(mass)
+    point = np.zeros((len(scenes), len(topo.joints)))
+    slider = np.zeros(len(scenes))
+    for c, scene in enumerate(scenes):
+        mech = scene["mechanism"]
+        for i, name in enumerate(topo.links):
+            link = scene["links"][name]
+            L = _link_length(mech, name)
+            rho = link["material"]["rho"]
+            mass[c, i] = rho * link["section"]["area"] * L
+            inertia[c, i] = mass[c, i] * L * L / 12.0 + rho * L * link["section"]["second_moment"]
+        for k, joint in enumerate(topo.joints):
+            point[c, k] = scene["point_masses"].get(joint, 0.0)
+        slider[c] = mech.get("slider_mass", 0.0)
+    return BodyProperties(mass, inertia, point, slider)
+
+
+def _link_length(mech: dict, link: str) -> float:
+    if mech["type"] == "single_link":
+        return mech["length"]
+    return mech[link]
+
+
+def make_batch(scenes: list[dict]) -> Batch:
+    """Collect the per-case parameters of structurally identical normalized scenes."""
+    kind = scenes[0]["mechanism"]["type"]
+    families = [case_family(s) for s in scenes]
+    drives = [_drive(s, f) for s, f in zip(scenes, families)]
+    n_steps, _ = time_grid(scenes[0])
+    lengths = {
+        key: np.array([s["mechanism"][key] for s in scenes], float) for key in _LENGTH_KEYS[kind]
+    }
+    return Batch(
+        scenes=scenes,
+        families=families,
+        mechanism_type=kind,
+        n_steps=n_steps,
+        step_size=np.array([time_grid(s)[1] for s in scenes]),
+        speed=np.array([s["drive"]["speed"] for s in scenes], float),
+        initial_angle=np.array([d[0] for d in drives]),
+        amplitude=np.array([d[1] for d in drives]),
+        branch=np.array(
+            [1.0 if s["mechanism"].get("branch", "open") == "open" else -1.0 for s in scenes]),
+        lengths=lengths,
+        bodies=_body_properties(scenes, lengths),
+        gravity=np.array(
+            [s["gravity"] if "gravity" in s["effects"] else (0.0, 0.0) for s in scenes], float),
+    )

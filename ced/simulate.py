@@ -1,0 +1,203 @@
+"""``ced.simulate``: scenes in, one CF-described xarray dataset out.
+
+Scenes are normalized, grouped into batches of identical structure, and each batch is solved
+vectorized across its cases. A batch that raises is re-run case by case so that one bad case
+is recorded in ``status``/``message`` and the others survive.
+"""
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+import xarray as xr
+
+from . import io
+from .cases import Batch, make_batch, structure_key
+from .dynamics import inverse_dynamics
+from .mechanism import topology
+from .scene import load_scene
+
+__all__ = ["simulate", "solve_batch"]
+
+
+def _as_list(scenes) -> list:
+    if isinstance(scenes, (str, Mapping)) or hasattr(scenes, "__fspath__"):
+        return [scenes]
+    return list(scenes)
+
+
+def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
+    """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
+
+    Returns arrays named as in :data:`ced.io.VARIABLES`, each with a leading ``case`` axis,
+    sampled every ``outputs.every`` steps.
+    """
+    scene = batch.scenes[0]
+    effects = scene["effects"]
+    every = scene["outputs"]["every"]
+    motion = batch.rigid_motion()
+    forces = inverse_dynamics(
+        motion, batch.bodies, batch.gravity, inertia="inertia" in effects)
+    out = {
+        "time": motion.time,
+        "crank_angle": motion.link_angle[:, :, 0],
+        "joint_position": motion.joint_position,
+        "link_angle": motion.link_angle,
+        "link_angular_velocity": motion.link_angular_velocity,
+        "link_angular_acceleration": motion.link_angular_acceleration,
+        "joint_force": forces.joint_force,
+        "input_torque": forces.input_torque,
+    }
+    if forces.guide_force is not None:
+        out["guide_force"] = forces.guide_force
+    out = {k: v[:, ::every] for k, v in out.items()}
+    flags = np.zeros(batch.size, np.uint8)
+    flags[motion.singular.any(axis=1)] |= io.STATUS_FLAGS["near_singular"]
+    out["status"] = flags
+    if scene["discretization"]["formulation"] != "rigid":
+        from .ked import elastic_response  # imported lazily: rigid runs need no FE machinery
+
+        out.update(elastic_response(batch, motion, out))
+    return out
+
+
+def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Solve a batch; if it fails, solve its cases one by one and record the failures."""
+    try:
+        return solve_batch(batch), [""] * batch.size
+    except Exception:  # noqa: BLE001 — isolate the failing case(s) below
+        if batch.size == 1:
+            raise
+    results, messages = [], []
+    for scene in batch.scenes:
+        try:
+            results.append(solve_batch(make_batch([scene])))
+            messages.append("")
+        except Exception as err:  # noqa: BLE001 — a failed case is recorded, not fatal
+            results.append(None)
+            messages.append(f"failed: {type(err).__name__}: {err}")
+    template = next((r for r in results if r is not None), None)
+    if template is None:
+        raise RuntimeError("every case of the batch failed: " + "; ".join(messages))
+    merged = {}
+    for name, value in template.items():
+        parts = []
+        for r in results:
+            if r is None:
+                filler = np.full_like(value[:1], np.nan if value.dtype.kind == "f" else 0)
+                if name == "status":
+                    filler[:] = io.STATUS_FLAGS["failed"]
+                parts.append(filler)
+            else:
+                parts.append(r[name])
+        merged[name] = np.concatenate(parts)
+    return merged, messages
+
+
+def _case_coords(batches: list[Batch], order: np.ndarray) -> dict:
+    """Per-case parameters as coordinates on ``case`` (DESIGN §5)."""
+    scenes = [s for b in batches for s in b.scenes]
+    families = [f for b in batches for f in b.families]
+    kind = scenes[0]["mechanism"]["type"]
+    topo = topology(kind)
+    # The material and section of the first flexible link describe the case (all links if rigid).
+    link = next((n for n in topo.links if scenes[0]["links"][n]["flexible"]), topo.link_names[0])
+    coords = {
+        "family": ("case", np.array(families, dtype=object), {"long_name": "mechanism family"}),
+        "scene_name": ("case", np.array([s.get("name", "") for s in scenes], dtype=object),
+                       {"long_name": "scene name"}),
+        "speed": ("case", np.array([s["drive"]["speed"] for s in scenes]),
+                  {"units": "rad s-1", "long_name": "input speed"}),
+        "material": ("case", np.array([s["links"][link]["material"]["name"] for s in scenes],
+                                      dtype=object),
+                     {"long_name": f"material of the {link}"}),
+    }
+    for key in {"four_bar": ("ground", "crank", "coupler", "rocker"),
+                "slider_crank": ("crank", "rod", "offset", "slider_mass"),
+                "single_link": ("length",)}[kind]:
+        units = "kg" if key == "slider_mass" else "m"
+        coords[key] = ("case", np.array([s["mechanism"][key] for s in scenes], float),
+                       {"units": units, "long_name": f"{key.replace('_', ' ')}"})
+    section = scenes[0]["links"][link]["section"]
+    for key in ("height", "width", "diameter"):
+        if key in section:
+            coords[f"section_{key}"] = (
+                "case", np.array([s["links"][link]["section"][key] for s in scenes], float),
+                {"units": "m", "long_name": f"section {key} of the {link}"})
+    return {k: (v[0], v[1][order], v[2]) for k, v in coords.items()}
+
+
+def simulate(scenes) -> xr.Dataset:
+    """Run one scene or many and return the DESIGN §5 dataset.
+
+    Parameters
+    ----------
+    scenes : path, dict, or an iterable of them
+        Scenes in the format of DESIGN §4. All must share the mechanism type and the number of
+        output steps (one dataset has one ``step`` dimension).
+
+    Returns
+    -------
+    xarray.Dataset
+        One entry per scene along ``case``, in the order given.
+
+    Examples
+    --------
+    >>> ds = simulate({"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1,
+    ...                              "coupler": 0.45, "rocker": 0.35},
+    ...                "discretization": {"formulation": "rigid"},
+    ...                "time": {"revolutions": 1, "steps_per_revolution": 64}})
+    >>> ds.sizes["case"], str(ds.family.values[0])
+    (1, 'crank_rocker')
+    """
+    normalized = [load_scene(s) for s in _as_list(scenes)]
+    if not normalized:
+        raise ValueError("simulate: no scenes given")
+    kinds = {s["mechanism"]["type"] for s in normalized}
+    if len(kinds) > 1:
+        raise ValueError(f"simulate: all scenes must share mechanism.type, got {sorted(kinds)}")
+    groups: dict[tuple, list[int]] = {}
+    for index, scene in enumerate(normalized):
+        groups.setdefault(structure_key(scene), []).append(index)
+    n_out = {k[1] // k[2] + 1 for k in groups}
+    if len(n_out) > 1:
+        raise ValueError(
+            "simulate: scenes must share the number of output steps "
+            "(time.revolutions × time.steps_per_revolution / outputs.every)")
+
+    batches, results, messages, times, positions = [], [], [], [], []
+    for indices in groups.values():
+        batch = make_batch([normalized[i] for i in indices])
+        start = _time.perf_counter()
+        result, msgs = _solve_isolated(batch)
+        elapsed = _time.perf_counter() - start
+        batches.append(batch)
+        results.append(result)
+        messages += msgs
+        times += [elapsed / batch.size] * batch.size
+        positions += indices
+    # Restore the caller's order of cases.
+    order = np.argsort(np.array(positions))
+    names = set.intersection(*(set(r) for r in results))
+    data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
+    data["solve_time"] = np.array(times)[order]
+    data["message"] = np.array(messages, dtype=object)[order]
+
+    first = normalized[0]
+    topo = topology(first["mechanism"]["type"])
+    coords = {
+        "case": ("case", np.arange(len(normalized)), {"long_name": "case index"}),
+        "step": ("step", np.arange(next(iter(n_out))) * first["outputs"]["every"],
+                 {"long_name": "time step index"}),
+        "link": ("link", np.array(topo.link_names, dtype=object), {"long_name": "link"}),
+        "joint": ("joint", np.array(topo.joint_names, dtype=object), {"long_name": "joint"}),
+        "axis": ("axis", np.array(["x", "y"], dtype=object), {"long_name": "global axis"}),
+        **_case_coords(batches, order),
+    }
+    if "station" in {d for name in data for d in io.VARIABLES[name][0]}:
+        n = first["outputs"]["stations"]
+        coords["station"] = ("station", np.linspace(0.0, 1.0, n),
+                             {"units": "1", "long_name": "normalized position along the link"})
+    effects = first["effects"] if isinstance(first["effects"], list) else []
+    return io.make_dataset(data, coords, scenes=normalized, effects=effects)

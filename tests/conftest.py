@@ -1,0 +1,34 @@
+"""Shared test helpers: random assemblable linkages for hypothesis."""
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import strategies as st
+
+from ced.mechanism import assembly_error, classify, input_limits
+
+
+@st.composite
+def four_bars(draw):
+    """(ground, crank, coupler, rocker, branch) of an assemblable four-bar with margin."""
+    lengths = [draw(st.floats(0.05, 1.0)) for _ in range(4)]
+    longest = max(lengths)
+    # Keep away from flat (degenerate) linkages and from change points, where the closed-form
+    # velocity formulas are singular by nature (tested separately).
+    if longest > 0.97 * (sum(lengths) - longest):
+        lengths[lengths.index(longest)] = 0.9 * (sum(lengths) - longest)
+    g, a, b, c = lengths
+    fam = classify(g, a, b, c)
+    if fam == "change_point":
+        b *= 1.01
+    branch = draw(st.sampled_from([1.0, -1.0]))
+    assert assembly_error({"type": "four_bar", "ground": g, "crank": a,
+                           "coupler": b, "rocker": c}) is None
+    return g, a, b, c, branch
+
+
+def drive_of(g, a, b, c, amplitude=0.9):
+    """(mid or initial angle, amplitude or NaN) for the input of a four-bar."""
+    lim = input_limits(g, a, b, c)
+    if lim.full_rotation:
+        return 0.3, np.nan
+    return lim.mid, amplitude * lim.half_range
