@@ -73,12 +73,24 @@ class Batch:
     def size(self) -> int:
         return len(self.scenes)
 
+    @property
+    def topology(self):
+        return topology(self.mechanism_type)
+
+    @property
+    def link_lengths(self) -> np.ndarray:
+        """(case, link) m."""
+        mech = [s["mechanism"] for s in self.scenes]
+        return np.array([[_link_length(m, name) for name in self.topology.links] for m in mech])
+
     def time(self) -> np.ndarray:
         """(case, step) s."""
         return self.step_size[:, None] * np.arange(self.n_steps + 1)[None, :]
 
-    def rigid_motion(self) -> kinematics.RigidMotion:
-        motion = kinematics.input_motion(self.time(), self.speed, self.initial_angle, self.amplitude)
+    def rigid_motion(self, times: np.ndarray | None = None) -> kinematics.RigidMotion:
+        """Rigid motion on the step grid, or at arbitrary ``times`` (case, n) s."""
+        times = self.time() if times is None else times
+        motion = kinematics.input_motion(times, self.speed, self.initial_angle, self.amplitude)
         L = self.lengths
         if self.mechanism_type == "four_bar":
             return kinematics.four_bar(

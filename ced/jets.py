@@ -1,0 +1,58 @@
+"""Second-order jets: a time-dependent array with its first two time derivatives.
+
+A jet is an array of shape ``(3, ...)`` holding X, Ẋ, Ẍ. The projections of the elastic model
+(DESIGN §3: link-end DOFs are projections of joint translations, and the time derivatives of
+those projections belong to the exact equations) are products of rotation matrices; carrying
+jets through the products gives Ṗ and P̈ exactly, without finite differences.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["rotation", "matmul", "transpose", "inverse", "constant"]
+
+
+def rotation(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+    """Jet of R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]], shape (3, ..., 2, 2).
+
+    Uses d/dt cos θ = −ω sin θ, d²/dt² cos θ = −α sin θ − ω² cos θ (and likewise for sin).
+    """
+    c, s = np.cos(angle), np.sin(angle)
+    w, a = velocity, acceleration
+    cos_jet = np.stack([c, -w * s, -a * s - w * w * c])
+    sin_jet = np.stack([s, w * c, a * c - w * w * s])
+    out = np.empty(cos_jet.shape + (2, 2))
+    out[..., 0, 0] = cos_jet
+    out[..., 0, 1] = -sin_jet
+    out[..., 1, 0] = sin_jet
+    out[..., 1, 1] = cos_jet
+    return out
+
+
+def constant(x: np.ndarray) -> np.ndarray:
+    """Jet of a constant array."""
+    out = np.zeros((3,) + np.shape(x))
+    out[0] = x
+    return out
+
+
+def matmul(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Jet of X Y by the Leibniz rule: (XY)' = X'Y + XY', (XY)'' = X''Y + 2X'Y' + XY''."""
+    return np.stack([
+        x[0] @ y[0],
+        x[1] @ y[0] + x[0] @ y[1],
+        x[2] @ y[0] + 2.0 * (x[1] @ y[1]) + x[0] @ y[2],
+    ])
+
+
+def transpose(x: np.ndarray) -> np.ndarray:
+    """Jet of Xᵀ (last two axes)."""
+    return np.swapaxes(x, -1, -2)
+
+
+def inverse(x: np.ndarray) -> np.ndarray:
+    """Jet of X⁻¹: (X⁻¹)' = −X⁻¹ X' X⁻¹, (X⁻¹)'' = −X⁻¹ (X'' Y + 2 X' Y') with Y = X⁻¹."""
+    y0 = np.linalg.inv(x[0])
+    y1 = -y0 @ x[1] @ y0
+    y2 = -y0 @ (x[2] @ y0 + 2.0 * (x[1] @ y1))
+    return np.stack([y0, y1, y2])

@@ -1,0 +1,389 @@
+"""Linear kineto-elasto-dynamics of a batch: M(t) q̈ + C(t) q̇ + K(t) q = F(t) (DESIGN §3).
+
+Builds each link's local matrices, the joint projections, and the terms of the requested
+effects; integrates from the requested start state (``undeformed``, ``quasi_static`` or the
+exact ``periodic`` steady state found by shooting, whose monodromy matrix gives the Floquet
+multipliers); recovers deflections, strains and stresses; runs the modal analysis over the
+cycle. Everything is vectorized across the cases of the batch.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import io
+from .assembly import Layout, build_layout, projection
+from .cases import Batch
+from .dynamics import inverse_dynamics
+from .effects import LinkData, SystemTerms, axial_force_coefficients, system_terms
+from .integrators import make_integrator
+from .modal import natural_frequencies
+from .recovery import link_fields, peaks
+from .stepping import initial_state, march
+
+__all__ = ["elastic_response", "Model", "build_model", "LARGE_DEFLECTION", "RESONANCE_GAP"]
+
+#: Deflection / link length above which the linear model's validity is flagged.
+LARGE_DEFLECTION = 0.01
+#: min |1 − μ| over Floquet multipliers below which a case is flagged resonant: a crank
+#: harmonic k within about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|).
+RESONANCE_GAP = 0.05
+#: max |μ| above which the periodic system is parametrically unstable.
+INSTABILITY_MARGIN = 1e-6
+#: Steps per chunk × cases kept in memory at once when assembling terms.
+_CHUNK_BUDGET = 8192
+
+
+def _element_module(formulation: str):
+    if formulation == "euler_bernoulli":
+        from .elements import euler_bernoulli as module
+    elif formulation == "timoshenko":
+        from .elements import timoshenko as module
+    else:
+        raise NotImplementedError(
+            f"discretization.formulation: {formulation!r} is not available yet; "
+            "use euler_bernoulli, timoshenko or rigid")
+    return module
+
+
+@dataclass
+class Model:
+    """Everything about a batch that does not change in time."""
+
+    batch: Batch
+    layout: Layout
+    links: dict[str, LinkData]
+    recovery: dict[str, dict[str, np.ndarray]]  # flexible link -> operator -> (case, st, n)
+    stations: np.ndarray
+    effects: set[str]
+    joint_mass: np.ndarray  # (case, joint) kg
+    modal_damping: np.ndarray | None = None  # (case, ny, ny)
+
+
+def _stack(dicts: list[dict]) -> dict[str, np.ndarray]:
+    return {k: np.stack([d[k] for d in dicts]) for k in dicts[0]}
+
+
+def build_model(batch: Batch) -> Model:
+    """Local matrices of every link of every case, the DOF layout and recovery operators."""
+    scene = batch.scenes[0]
+    topo = batch.topology
+    formulation = scene["discretization"]["formulation"]
+    n_el = scene["discretization"]["elements_per_link"]
+    stations = np.linspace(0.0, 1.0, scene["outputs"]["stations"])
+    element = _element_module(formulation)
+    from .elements import rigid
+
+    links, recovery, sizes, ends = {}, {}, {}, {}
+    flexible = {name: scene["links"][name]["flexible"] for name in topo.links}
+    clamp_dof = None
+    for i, name in enumerate(topo.links):
+        per_case, operators = [], []
+        for c, s in enumerate(batch.scenes):
+            link = s["links"][name]
+            mat, sec = link["material"], link["section"]
+            L = float(batch.link_lengths[c, i])
+            if flexible[name]:
+                m = element.link_matrices(
+                    L, n_el, E=mat["E"], G_shear=mat["G"], rho=mat["rho"], area=sec["area"],
+                    second_moment=sec["second_moment"], height=sec["height"],
+                    shear_coefficient=sec["shear_coefficient"])
+                operators.append(element.recovery_matrices(m, stations))
+            else:
+                m = rigid.link_matrices(L, rho=mat["rho"], area=sec["area"],
+                                        second_moment=sec["second_moment"])
+            per_case.append({
+                "mass": m.mass, "translational_mass": m.translational_mass,
+                "stiffness": m.stiffness, "gyroscopic": m.gyroscopic,
+                "geometric_stiffness": m.geometric_stiffness,
+                "load_constant": m.load_constant, "load_linear": m.load_linear,
+            })
+        arrays = _stack(per_case)
+        rho_a = np.array([s["links"][name]["material"]["rho"] * s["links"][name]["section"]["area"]
+                          for s in batch.scenes])
+        links[name] = LinkData(mass_per_length=rho_a, **arrays)
+        sizes[name] = arrays["mass"].shape[-1]
+        ends[name] = _end_dofs(m)
+        if flexible[name]:
+            recovery[name] = _stack(operators)
+            if name == topo.input_link:
+                clamp_dof = _rotation_dof(m)
+    slider = "C" if batch.mechanism_type == "slider_crank" else None
+    layout = build_layout(topo, flexible, sizes, ends, clamp_dof, slider_joint=slider)
+    joint_mass = batch.bodies.point_mass.copy()
+    if slider is not None:
+        joint_mass[:, topo.joint_names.index(slider)] += batch.bodies.slider_mass
+    effects = set(scene["effects"])
+    model = Model(batch, layout, links, recovery, stations, effects, joint_mass)
+    if "damping" in effects and scene["damping"]["model"] == "modal":
+        model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
+    return model
+
+
+def _end_dofs(m) -> tuple[tuple[int, int], tuple[int, int]]:
+    first, second = m.end_dofs[0], m.end_dofs[1]
+    return (int(first[0]), int(first[1])), (int(second[0]), int(second[1]))
+
+
+def _rotation_dof(m) -> int:
+    """Local index of the rotation at s = 0 (third entry of the end-DOF description)."""
+    return int(m.end_dofs[2])
+
+
+def terms_at(
+    model: Model, times: np.ndarray, effects: set[str] | None = None
+) -> tuple[SystemTerms, np.ndarray]:
+    """System terms and the projection value at arbitrary times (case, step).
+
+    ``effects`` defaults to the scene's; the modal analysis passes them without damping.
+    """
+    batch, layout = model.batch, model.layout
+    effects = model.effects if effects is None else effects
+    topo = layout.topology
+    motion = batch.rigid_motion(times)
+    gravity = batch.gravity if "gravity" in effects else np.zeros_like(batch.gravity)
+    has_inertia = "inertia" in effects
+    P = projection(layout, batch.link_lengths, motion.link_angle,
+                   motion.link_angular_velocity, motion.link_angular_acceleration)
+    g = gravity[:, None, :]
+    loads, axial = {}, {} if "axial_stiffening" in effects else None
+    forces = None
+    if axial is not None:
+        forces = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia).joint_force
+    carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
+    for i, name in enumerate(topo.links):
+        th = motion.link_angle[..., i]
+        c, s = np.cos(th), np.sin(th)
+        first = topo.links[name][0]
+        kf = topo.joint_names.index(first)
+        rho_a = model.links[name].mass_per_length[:, None, None]
+        acc = motion.joint_acceleration[:, :, kf] if has_inertia else 0.0
+        glob = rho_a * (g - acc)  # distributed load at s = 0, global, N/m
+        b0 = np.stack([c * glob[..., 0] + s * glob[..., 1],
+                       -s * glob[..., 0] + c * glob[..., 1]], axis=-1)
+        if has_inertia:
+            w = motion.link_angular_velocity[..., i]
+            al = motion.link_angular_acceleration[..., i]
+            b1 = rho_a * np.stack([w * w, -al], axis=-1)
+        else:
+            b1 = np.zeros_like(b0)
+        loads[name] = (b0, b1)
+        if axial is not None:
+            sign = 1.0 if topo.joints[first][1] == name else -1.0
+            f = sign * forces[:, :, kf]
+            if carrier[first] == name:
+                mp = batch.bodies.point_mass[:, kf][:, None, None]
+                f = f + mp * (g - acc)
+            fx = c * f[..., 0] + s * f[..., 1]
+            axial[name] = axial_force_coefficients(fx, b0[..., 0], b1[..., 0])
+    acc_j = motion.joint_acceleration if has_inertia else 0.0
+    joint_load = model.joint_mass[:, None, :, None] * (gravity[:, None, None, :] - acc_j)
+    terms = system_terms(layout, model.links, P, motion.link_angular_velocity,
+                         motion.link_angular_acceleration, loads, axial, model.joint_mass,
+                         joint_load, effects)
+    if "damping" in effects:
+        _add_damping(model, terms)
+    return terms, P[0]
+
+
+def _add_damping(model: Model, terms: SystemTerms) -> None:
+    d = model.batch.scenes[0]["damping"]
+    if d["model"] == "rayleigh":
+        extra = d["alpha"] * terms.elastic_mass + d["beta"] * terms.elastic_stiffness
+    else:
+        extra = np.broadcast_to(model.modal_damping[:, None], terms.stiffness.shape)
+    terms.damping = extra if terms.damping is None else terms.damping + extra
+
+
+def _modal_damping(model: Model, ratio: float) -> np.ndarray:
+    """C = M Φ diag(2ζω) Φᵀ M from the frozen structure at t = 0 (mass-normalised Φ), held
+    constant over the cycle: a phenomenological damping that gives every mode the ratio ζ."""
+    t0 = np.zeros((model.batch.size, 1))
+    terms, _ = terms_at(model, t0, model.effects - {"damping"})
+    K, M = terms.elastic_stiffness[:, 0], terms.elastic_mass[:, 0]
+    n = K.shape[-1]
+    freq, shapes = natural_frequencies(K, M, n, shapes=True)
+    omega = 2.0 * math.pi * np.abs(freq)
+    MPhi = M @ shapes
+    return MPhi @ (2.0 * ratio * omega[..., None] * np.swapaxes(MPhi, -1, -2))
+
+
+class _TermCache:
+    """Terms over the step grid, computed chunk by chunk as the march asks for them."""
+
+    def __init__(self, model: Model, h: np.ndarray, n_steps: int):
+        self.model, self.h, self.n_steps = model, h, n_steps
+        self.chunk = max(4, _CHUNK_BUDGET // max(1, model.batch.size))
+        self.start, self.terms, self.P = None, None, None
+
+    def load(self, k: int):
+        if self.start is None or not (self.start <= k < self.start + self.chunk):
+            self.start = k
+            steps = np.arange(k, min(k + self.chunk, self.n_steps + 1))
+            times = self.h[:, None] * steps[None, :]
+            self.terms, self.P = terms_at(self.model, times)
+        return k - self.start
+
+    def __call__(self, k: int):
+        j = self.load(k)
+        t = self.terms
+        M = t.mass[:, j] if t.mass is not None else None
+        C = t.damping[:, j] if t.damping is not None else None
+        return M, C, t.stiffness[:, j], t.force[:, j]
+
+
+def _shoot(scheme, cache: _TermCache, h, steps_per_period: int, ny: int, ncase: int):
+    """Exact periodic state of the discretized system and its Floquet multipliers.
+
+    Propagates the 3n unit states (homogeneous) and the zero state under the forcing (column
+    0) over one period with shared factorizations: s_N = Φ s_0 + p. The periodic state solves
+    (I − Φ) s_0 = p (least squares where I − Φ is singular: exact resonance stays finite).
+    """
+    r = 3 * ny
+    eye = np.eye(r)
+    cols = np.concatenate([np.zeros((r, 1)), eye], axis=1)  # column 0: forced from rest
+    q0 = np.broadcast_to(cols[:ny], (ncase, ny, r + 1)).copy()
+    v0 = np.broadcast_to(cols[ny : 2 * ny], (ncase, ny, r + 1)).copy()
+    a0 = np.broadcast_to(cols[2 * ny :], (ncase, ny, r + 1)).copy()
+    end = march(scheme, cache, h, steps_per_period, (q0, v0, a0))
+    final = np.concatenate(end, axis=1)  # (case, 3n, r + 1)
+    p, Phi = final[..., 0], final[..., 1:]
+    A = np.eye(r) - Phi
+    try:
+        s0 = np.linalg.solve(A, p[..., None])[..., 0]
+        ok = np.all(np.isfinite(s0), axis=-1)
+    except np.linalg.LinAlgError:
+        ok = np.zeros(ncase, bool)
+        s0 = np.zeros_like(p)
+    for c in np.flatnonzero(~ok | (np.linalg.cond(A) > 1e12)):
+        s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-10)[0]
+    multipliers = np.linalg.eigvals(Phi)
+    state = (s0[:, :ny, None], s0[:, ny : 2 * ny, None], s0[:, 2 * ny :, None])
+    return state, multipliers
+
+
+def elastic_response(batch: Batch, motion, rigid_out: dict) -> dict[str, np.ndarray]:
+    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis)."""
+    model = build_model(batch)
+    scene = batch.scenes[0]
+    layout = model.layout
+    ncase, ny = batch.size, layout.ny
+    every = scene["outputs"]["every"]
+    n_steps = batch.n_steps
+    h = batch.step_size
+    topo = layout.topology
+    out_steps = np.arange(0, n_steps + 1, every)
+    nlink, nst = len(topo.links), len(model.stations)
+    status = rigid_out["status"].copy()
+    result: dict[str, np.ndarray] = {}
+
+    cache = _TermCache(model, h, n_steps)
+    qz = np.zeros((ncase, len(out_steps), layout.nz))
+    qz_static = np.zeros_like(qz)
+    dynamic = "elastic_inertia" in model.effects
+
+    if ny and not dynamic:
+        for idx, k in enumerate(out_steps):
+            M, C, K, F = cache(k)
+            y = np.linalg.solve(K, F[..., None])[..., 0]
+            qz[:, idx] = (cache.P[:, k - cache.start] @ y[..., None])[..., 0]
+        qz_static = qz
+    elif ny:
+        time_cfg = scene["time"]
+        scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
+        start = time_cfg["start"]
+        if start == "periodic":
+            spr = time_cfg["steps_per_revolution"]
+            state, mu = _shoot(scheme, cache, h, spr, ny, ncase)
+            cache = _TermCache(model, h, n_steps)
+            mu_abs = np.abs(mu)
+            result["floquet_multiplier_max"] = mu_abs.max(axis=-1)
+            status[mu_abs.max(axis=-1) > 1.0 + INSTABILITY_MARGIN] |= io.STATUS_FLAGS[
+                "parametrically_unstable"]
+            status[np.abs(1.0 - mu).min(axis=-1) < RESONANCE_GAP] |= io.STATUS_FLAGS["resonant"]
+        else:
+            q0 = np.zeros((ncase, ny, 1))
+            v0 = np.zeros_like(q0)
+            if start == "quasi_static":
+                q0, v0 = _quasi_static_start(model, h)
+            state = initial_state(scheme, cache, h, q0, v0)
+
+        out_index = {int(k): i for i, k in enumerate(out_steps)}
+
+        def record(k, st):
+            i = out_index.get(k)
+            if i is None:
+                return
+            j = cache.load(k)
+            P0 = cache.P[:, j]
+            qz[:, i] = (P0 @ st[0])[..., 0]
+            K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
+            qz_static[:, i] = (P0 @ np.linalg.solve(K, F[..., None]))[..., 0]
+
+        march(scheme, cache, h, n_steps, state, record)
+
+    fields = {name: np.zeros((ncase, len(out_steps), nlink, nst)) for name in
+              ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")}
+    static_deflection = np.zeros_like(fields["deflection"])
+    offsets = layout.link_offsets
+    for i, name in enumerate(topo.links):
+        if name not in model.recovery:
+            continue
+        rows = slice(offsets[name], offsets[name] + layout.link_sizes[name])
+        sec = np.array([s["links"][name]["section"]["height"] for s in batch.scenes])
+        E = np.array([s["links"][name]["material"]["E"] for s in batch.scenes])
+        f = link_fields(qz[..., rows], model.recovery[name], model.stations, sec, E)
+        for key, value in f.items():
+            fields[key][:, :, i] = value
+        static_deflection[:, :, i] = link_fields(
+            qz_static[..., rows], model.recovery[name], model.stations, sec, E)["deflection"]
+    result.update(fields)
+    result["peak_deflection"] = peaks(fields["deflection"])
+    result["peak_stress"] = peaks(fields["stress"])
+    static_peak = peaks(static_deflection)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        amp = np.where(static_peak > 0, result["peak_deflection"] / static_peak, 1.0)
+    result["dynamic_amplification"] = amp
+    relative = result["peak_deflection"] / batch.link_lengths
+    status[(relative > LARGE_DEFLECTION).any(axis=1)] |= io.STATUS_FLAGS["large_deflection"]
+
+    if scene.get("modal") and ny:
+        result["natural_frequency"] = _modal(model, scene["modal"])
+    result["status"] = status
+    return result
+
+
+def _scheme_params(time_cfg: dict) -> dict:
+    name = time_cfg["integrator"]
+    if name == "newmark":
+        return {"beta": time_cfg["beta"], "gamma": time_cfg["gamma"]}
+    if name == "hht":
+        return {"alpha": time_cfg["alpha"]}
+    if name == "generalized_alpha":
+        return {"rho_inf": time_cfg["rho_inf"]}
+    return {}
+
+
+def _quasi_static_start(model: Model, h: np.ndarray):
+    """q0 = K⁻¹F at t = 0 and q̇0 from the quasi-static solution at ±h (central difference)."""
+    times = h[:, None] * np.array([-1.0, 0.0, 1.0])[None, :]
+    terms, _ = terms_at(model, times)
+    y = np.linalg.solve(terms.stiffness, terms.force[..., None])
+    v0 = (y[:, 2] - y[:, 0]) / (2.0 * h[:, None, None])
+    return y[:, 1], v0
+
+
+def _modal(model: Model, modal: dict) -> np.ndarray:
+    """Frequencies at ``modal.angles`` evenly spaced phases of the input cycle, Hz."""
+    n = modal["angles"]
+    phase = 2.0 * math.pi * np.arange(n) / n
+    times = phase[None, :] / model.batch.speed[:, None]
+    terms, _ = terms_at(model, times, model.effects - {"damping"})
+    modes = min(modal["modes"], model.layout.ny)
+    freq = natural_frequencies(terms.stiffness, terms.elastic_mass, modes)
+    if modes < modal["modes"]:
+        pad = np.full(freq.shape[:-1] + (modal["modes"] - modes,), np.nan)
+        freq = np.concatenate([freq, pad], axis=-1)
+    return freq
