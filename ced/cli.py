@@ -15,7 +15,7 @@ __all__ = ["main"]
 def _run(args: argparse.Namespace) -> int:
     from .io import status_names, write_dataset
     from .scene import load_scene
-    from .simulate import simulate
+    from .simulation import simulate
 
     scenes = [load_scene(path) for path in args.scenes]  # validate everything before solving
     ds = simulate(scenes)

@@ -35,7 +35,9 @@ class LinkData:
 
     ``mass``, ``translational_mass``, ``stiffness``, ``gyroscopic`` (case, n, n);
     ``geometric_stiffness`` (case, 3, n, n); ``load_constant``, ``load_linear`` (case, n, 2);
-    ``mass_per_length`` (case,) kg/m.
+    ``moment_load`` (case, n) m; ``mass_per_length`` (case,) kg/m;
+    ``rotary_inertia_per_length`` (case,) kg m, ρI where the mass matrix carries rotary
+    inertia, else 0.
     """
 
     mass: np.ndarray
@@ -45,7 +47,9 @@ class LinkData:
     geometric_stiffness: np.ndarray
     load_constant: np.ndarray
     load_linear: np.ndarray
+    moment_load: np.ndarray
     mass_per_length: np.ndarray
+    rotary_inertia_per_length: np.ndarray
 
 
 @dataclass
@@ -101,8 +105,9 @@ def system_terms(
     links : link -> local matrices
     P : (3, case, step, nz, ny) projection jet
     omega, alpha : (case, step, link) rad/s, rad/s²
-    link_loads : link -> (b0, b1), each (case, step, 2): distributed load b0 + s b1 in the link
-        frame, N/m and N/m² (already containing only the requested inertia/gravity parts)
+    link_loads : link -> (b0, b1, m0): distributed load b0 + s b1 in the link frame, each
+        (case, step, 2), N/m and N/m², and a distributed couple m0 (case, step) N m/m or None
+        (already containing only the requested inertia/gravity parts)
     axial : link -> (3, case, step) coefficients of N(s), or None without axial_stiffening
     joint_mass : (case, joint) kg of point masses (and the slider at its joint)
     joint_load : (case, step, joint, 2) N on the point masses (global frame)
@@ -140,8 +145,10 @@ def system_terms(
             N = axial[name]  # (3, case, step)
             Kg = np.einsum("kcs,cknm->csnm", N, data.geometric_stiffness)
             K += _sandwich(P0, Kg, P0)
-        b0, b1 = link_loads[name]
+        b0, b1, m0 = link_loads[name]
         f = data.load_constant[:, None] @ b0[..., None] + data.load_linear[:, None] @ b1[..., None]
+        if m0 is not None:
+            f = f + m0[..., None, None] * data.moment_load[:, None, :, None]
         F += (np.swapaxes(P0, -1, -2) @ f)[..., 0]
     K += K_el
     for k, joint in enumerate(topo.joints):

@@ -21,15 +21,19 @@ from .effects import LinkData, SystemTerms, axial_force_coefficients, system_ter
 from .integrators import make_integrator
 from .modal import natural_frequencies
 from .recovery import link_fields, peaks
-from .stepping import initial_state, march
+from .stepping import from_independent, independent, march
+from .stepping import start as start_state
 
 __all__ = ["elastic_response", "Model", "build_model", "LARGE_DEFLECTION", "RESONANCE_GAP"]
 
 #: Deflection / link length above which the linear model's validity is flagged.
 LARGE_DEFLECTION = 0.01
-#: min |1 − μ| over Floquet multipliers below which a case is flagged resonant: a crank
-#: harmonic k within about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|).
+#: A Floquet multiplier μ with |1 − μ| below this is near resonance: a crank harmonic k within
+#: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ...
 RESONANCE_GAP = 0.05
+#: ... and the case is flagged resonant when such near-resonant modes carry more than this
+#: share of the periodic displacement (a barely excited high mode near a harmonic is not).
+RESONANCE_SHARE = 0.5
 #: max |μ| above which the periodic system is parametrically unstable.
 INSTABILITY_MARGIN = 1e-6
 #: Steps per chunk × cases kept in memory at once when assembling terms.
@@ -62,54 +66,55 @@ class Model:
     modal_damping: np.ndarray | None = None  # (case, ny, ny)
 
 
-def _stack(dicts: list[dict]) -> dict[str, np.ndarray]:
-    return {k: np.stack([d[k] for d in dicts]) for k in dicts[0]}
+def _link_parameter(batch: Batch, link: str, group: str, key: str) -> np.ndarray:
+    """A material or section value of ``link`` for every case, (case,)."""
+    return np.array([s["links"][link][group][key] for s in batch.scenes], float)
 
 
 def build_model(batch: Batch) -> Model:
-    """Local matrices of every link of every case, the DOF layout and recovery operators."""
+    """Local matrices of every link of every case, the DOF layout and recovery operators.
+
+    The element modules broadcast over cases, so each link is built once for the batch.
+    """
+    from .elements import rigid
+
     scene = batch.scenes[0]
     topo = batch.topology
     formulation = scene["discretization"]["formulation"]
     n_el = scene["discretization"]["elements_per_link"]
     stations = np.linspace(0.0, 1.0, scene["outputs"]["stations"])
     element = _element_module(formulation)
-    from .elements import rigid
-
-    links, recovery, sizes, ends = {}, {}, {}, {}
     flexible = {name: scene["links"][name]["flexible"] for name in topo.links}
+    links, recovery, sizes, ends = {}, {}, {}, {}
     clamp_dof = None
     for i, name in enumerate(topo.links):
-        per_case, operators = [], []
-        for c, s in enumerate(batch.scenes):
-            link = s["links"][name]
-            mat, sec = link["material"], link["section"]
-            L = float(batch.link_lengths[c, i])
-            if flexible[name]:
-                m = element.link_matrices(
-                    L, n_el, E=mat["E"], G_shear=mat["G"], rho=mat["rho"], area=sec["area"],
-                    second_moment=sec["second_moment"], height=sec["height"],
-                    shear_coefficient=sec["shear_coefficient"])
-                operators.append(element.recovery_matrices(m, stations))
-            else:
-                m = rigid.link_matrices(L, rho=mat["rho"], area=sec["area"],
-                                        second_moment=sec["second_moment"])
-            per_case.append({
-                "mass": m.mass, "translational_mass": m.translational_mass,
-                "stiffness": m.stiffness, "gyroscopic": m.gyroscopic,
-                "geometric_stiffness": m.geometric_stiffness,
-                "load_constant": m.load_constant, "load_linear": m.load_linear,
-            })
-        arrays = _stack(per_case)
-        rho_a = np.array([s["links"][name]["material"]["rho"] * s["links"][name]["section"]["area"]
-                          for s in batch.scenes])
-        links[name] = LinkData(mass_per_length=rho_a, **arrays)
-        sizes[name] = arrays["mass"].shape[-1]
-        ends[name] = _end_dofs(m)
+        par = {key: _link_parameter(batch, name, "material", key) for key in ("E", "G", "rho")}
+        sec = {key: _link_parameter(batch, name, "section", key)
+               for key in ("area", "second_moment", "height", "shear_coefficient")}
+        length = batch.link_lengths[:, i]
+        rotary = 0.0
         if flexible[name]:
-            recovery[name] = _stack(operators)
+            m = element.link_matrices(
+                length, n_el, E=par["E"], G_shear=par["G"], rho=par["rho"], area=sec["area"],
+                second_moment=sec["second_moment"], height=sec["height"],
+                shear_coefficient=sec["shear_coefficient"])
+            recovery[name] = element.recovery_matrices(m, stations)
+            ends[name] = tuple(tuple(int(i) for i in pair) for pair in m.end_dofs)
+            if formulation == "timoshenko":
+                rotary = par["rho"] * sec["second_moment"]  # its mass carries rotary inertia
             if name == topo.input_link:
-                clamp_dof = _rotation_dof(m)
+                clamp_dof = int(m.end_rotations[0])
+        else:
+            m = rigid.link_matrices(length, rho=par["rho"], area=sec["area"],
+                                    second_moment=sec["second_moment"])
+            ends[name] = ((0, 1), (0, 1))  # unused: a rigid link's ends follow from (u0, v0, φ)
+        links[name] = LinkData(
+            mass=m.mass, translational_mass=m.translational_mass, stiffness=m.stiffness,
+            gyroscopic=m.gyroscopic, geometric_stiffness=m.geometric_stiffness,
+            load_constant=m.load_constant, load_linear=m.load_linear,
+            moment_load=m.moment_load, mass_per_length=par["rho"] * sec["area"],
+            rotary_inertia_per_length=np.broadcast_to(rotary, length.shape).astype(float))
+        sizes[name] = m.mass.shape[-1]
     slider = "C" if batch.mechanism_type == "slider_crank" else None
     layout = build_layout(topo, flexible, sizes, ends, clamp_dof, slider_joint=slider)
     joint_mass = batch.bodies.point_mass.copy()
@@ -120,16 +125,6 @@ def build_model(batch: Batch) -> Model:
     if "damping" in effects and scene["damping"]["model"] == "modal":
         model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
     return model
-
-
-def _end_dofs(m) -> tuple[tuple[int, int], tuple[int, int]]:
-    first, second = m.end_dofs[0], m.end_dofs[1]
-    return (int(first[0]), int(first[1])), (int(second[0]), int(second[1]))
-
-
-def _rotation_dof(m) -> int:
-    """Local index of the rotation at s = 0 (third entry of the end-DOF description)."""
-    return int(m.end_dofs[2])
 
 
 def terms_at(
@@ -169,7 +164,11 @@ def terms_at(
             b1 = rho_a * np.stack([w * w, -al], axis=-1)
         else:
             b1 = np.zeros_like(b0)
-        loads[name] = (b0, b1)
+        loads[name] = (b0, b1, None)
+        if has_inertia and np.any(model.links[name].rotary_inertia_per_length):
+            # Section rotation θ_link + ψ: rotary inertia loads the ψ DOFs with −ρI α.
+            rho_i = model.links[name].rotary_inertia_per_length[:, None]
+            loads[name] = (b0, b1, -rho_i * motion.link_angular_acceleration[..., i])
         if axial is not None:
             sign = 1.0 if topo.joints[first][1] == name else -1.0
             f = sign * forces[:, :, kf]
@@ -238,30 +237,51 @@ def _shoot(scheme, cache: _TermCache, h, steps_per_period: int, ny: int, ncase: 
     """Exact periodic state of the discretized system and its Floquet multipliers.
 
     Propagates the 3n unit states (homogeneous) and the zero state under the forcing (column
-    0) over one period with shared factorizations: s_N = Φ s_0 + p. The periodic state solves
-    (I − Φ) s_0 = p (least squares where I − Φ is singular: exact resonance stays finite).
+    0) over one period with shared factorizations: s_N = Φ s_0 + p, s the independent state
+    ((q, v, a) of the Newmark family, the history of Houbolt). The periodic state solves
+    (I − Φ) s_0 = p — by least squares where I − Φ is singular, so exact resonance stays finite.
     """
     r = 3 * ny
-    eye = np.eye(r)
-    cols = np.concatenate([np.zeros((r, 1)), eye], axis=1)  # column 0: forced from rest
-    q0 = np.broadcast_to(cols[:ny], (ncase, ny, r + 1)).copy()
-    v0 = np.broadcast_to(cols[ny : 2 * ny], (ncase, ny, r + 1)).copy()
-    a0 = np.broadcast_to(cols[2 * ny :], (ncase, ny, r + 1)).copy()
-    end = march(scheme, cache, h, steps_per_period, (q0, v0, a0))
-    final = np.concatenate(end, axis=1)  # (case, 3n, r + 1)
+    cols = np.concatenate([np.zeros((r, 1)), np.eye(r)], axis=1)  # column 0: forced from rest
+    parts = [np.broadcast_to(cols[i * ny : (i + 1) * ny], (ncase, ny, r + 1)).copy()
+             for i in range(3)]
+    end = march(scheme, cache, h, steps_per_period, from_independent(cache, scheme, *parts))
+    final = independent(scheme, end)  # (case, 3n, r + 1)
     p, Phi = final[..., 0], final[..., 1:]
     A = np.eye(r) - Phi
-    try:
-        s0 = np.linalg.solve(A, p[..., None])[..., 0]
-        ok = np.all(np.isfinite(s0), axis=-1)
-    except np.linalg.LinAlgError:
-        ok = np.zeros(ncase, bool)
-        s0 = np.zeros_like(p)
-    for c in np.flatnonzero(~ok | (np.linalg.cond(A) > 1e12)):
-        s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-10)[0]
-    multipliers = np.linalg.eigvals(Phi)
-    state = (s0[:, :ny, None], s0[:, ny : 2 * ny, None], s0[:, 2 * ny :, None])
-    return state, multipliers
+    s0 = np.empty_like(p)
+    for c in range(ncase):
+        if np.linalg.cond(A[c]) < 1e12:
+            s0[c] = np.linalg.solve(A[c], p[c])
+        else:
+            s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-10)[0]
+    multipliers, vectors = np.linalg.eig(Phi)
+    q0, v0, a0 = (s0[:, i * ny : (i + 1) * ny, None] for i in range(3))
+    return (q0, v0, a0), multipliers, _resonant(multipliers, vectors, p, ny)
+
+
+def _resonant(mu: np.ndarray, V: np.ndarray, p: np.ndarray, ny: int) -> np.ndarray:
+    """(case,) bool: near-resonant Floquet modes dominate the periodic displacement.
+
+    With Φ = V diag(μ) V⁻¹ the periodic state is Σ_i V_i c_i/(1 − μ_i), c = V⁻¹p; the share of
+    the modes with |1 − μ_i| < RESONANCE_GAP in its displacement part is compared with
+    RESONANCE_SHARE.
+    """
+    near = np.abs(1.0 - mu) < RESONANCE_GAP
+    flagged = np.zeros(mu.shape[0], bool)
+    for c in np.flatnonzero(near.any(axis=-1)):
+        try:
+            coeff = np.linalg.solve(V[c], p[c].astype(complex))
+        except np.linalg.LinAlgError:
+            flagged[c] = True  # defective monodromy at a multiplier near 1: resonance
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = coeff / (1.0 - mu[c])
+        x = np.where(np.isfinite(x), x, 1e300)
+        total = np.linalg.norm(V[c][:ny] @ x)
+        part = np.linalg.norm(V[c][:ny][:, near[c]] @ x[near[c]])
+        flagged[c] = part > RESONANCE_SHARE * max(total, 1e-300)
+    return flagged
 
 
 def elastic_response(batch: Batch, motion, rigid_out: dict) -> dict[str, np.ndarray]:
@@ -293,22 +313,23 @@ def elastic_response(batch: Batch, motion, rigid_out: dict) -> dict[str, np.ndar
     elif ny:
         time_cfg = scene["time"]
         scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
-        start = time_cfg["start"]
-        if start == "periodic":
+        start_mode = time_cfg["start"]
+        if start_mode == "periodic":
             spr = time_cfg["steps_per_revolution"]
-            state, mu = _shoot(scheme, cache, h, spr, ny, ncase)
+            periodic, mu, resonant = _shoot(scheme, cache, h, spr, ny, ncase)
             cache = _TermCache(model, h, n_steps)
+            state = from_independent(cache, scheme, *periodic)
             mu_abs = np.abs(mu)
             result["floquet_multiplier_max"] = mu_abs.max(axis=-1)
             status[mu_abs.max(axis=-1) > 1.0 + INSTABILITY_MARGIN] |= io.STATUS_FLAGS[
                 "parametrically_unstable"]
-            status[np.abs(1.0 - mu).min(axis=-1) < RESONANCE_GAP] |= io.STATUS_FLAGS["resonant"]
+            status[resonant] |= io.STATUS_FLAGS["resonant"]
         else:
             q0 = np.zeros((ncase, ny, 1))
             v0 = np.zeros_like(q0)
-            if start == "quasi_static":
+            if start_mode == "quasi_static":
                 q0, v0 = _quasi_static_start(model, h)
-            state = initial_state(scheme, cache, h, q0, v0)
+            state = start_state(cache, q0, v0)
 
         out_index = {int(k): i for i, k in enumerate(out_steps)}
 

@@ -1,0 +1,51 @@
+"""Link "elements": local-frame matrices of one link, one formulation per module.
+
+Every formulation module exposes the same pure functions::
+
+    link_matrices(length, n_elements, *, E, G_shear, rho, area, second_moment, height,
+                  shear_coefficient, rotary_inertia) -> LinkMatrices
+    recovery_matrices(matrices, stations) -> {"u", "v", "rotation", "curvature",
+                                              "axial_strain", ...: (..., st, n)}
+    shape_functions(xi, h, phi) -> dict of shape-function arrays
+
+All parameters broadcast over leading batch (case) dimensions. Per link the equations are
+(DESIGN §3)::
+
+    M q̈ + 2ω G q̇ + (K + α G − ω² M_w + Σ_k P_k Kg_k) q = L0 b0 + L1 b1 (+ m0 moment_load)
+
+The formulations ``seed_lame`` and ``plane_stress`` live elsewhere (not in this package).
+"""
+from __future__ import annotations
+
+from types import ModuleType
+
+from . import euler_bernoulli, rigid, timoshenko
+from ._common import LinkMatrices
+
+__all__ = ["LinkMatrices", "FORMULATIONS", "formulation", "link_matrices", "recovery_matrices",
+           "euler_bernoulli", "timoshenko", "rigid"]
+
+FORMULATIONS: dict[str, ModuleType] = {
+    "euler_bernoulli": euler_bernoulli,
+    "timoshenko": timoshenko,
+    "rigid": rigid,
+}
+
+
+def formulation(name: str) -> ModuleType:
+    """The module implementing formulation ``name`` (a clear error lists the allowed ones)."""
+    try:
+        return FORMULATIONS[name]
+    except KeyError:
+        raise ValueError(f"unknown element formulation {name!r}; allowed: "
+                         f"{sorted(FORMULATIONS)}") from None
+
+
+def link_matrices(name: str, length, n_elements: int, **params) -> LinkMatrices:
+    """``formulation(name).link_matrices(length, n_elements, **params)``."""
+    return formulation(name).link_matrices(length, n_elements, **params)
+
+
+def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
+    """Recovery operators of ``matrices`` with its own formulation's shape functions."""
+    return formulation(matrices.formulation).recovery_matrices(matrices, stations)
