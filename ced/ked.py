@@ -18,7 +18,7 @@ from .assembly import Layout, build_layout, projection
 from .cases import Batch
 from .dynamics import inverse_dynamics
 from .effects import LinkData, SystemTerms, axial_force_coefficients, system_terms
-from .integrators import make_integrator
+from .integrators import NewmarkFamily, make_integrator
 from .modal import natural_frequencies
 from .recovery import link_fields, peaks
 from .stepping import from_independent, independent, march
@@ -242,19 +242,28 @@ def _shoot(scheme, cache: _TermCache, h, steps_per_period: int, ny: int, ncase: 
     (I − Φ) s_0 = p — by least squares where I − Φ is singular, so exact resonance stays finite.
     """
     r = 3 * ny
-    cols = np.concatenate([np.zeros((r, 1)), np.eye(r)], axis=1)  # column 0: forced from rest
-    parts = [np.broadcast_to(cols[i * ny : (i + 1) * ny], (ncase, ny, r + 1)).copy()
-             for i in range(3)]
+    # Shoot in the scaled state (q, h v, h² a) (Houbolt: its history, all in m) so that the
+    # columns of Φ are commensurate; unscaled, ω h ≫ 1 axial modes make I − Φ look singular.
+    hh = np.asarray(h, float)[:, None]
+    if isinstance(scheme, NewmarkFamily):
+        scale = np.concatenate([np.ones((ncase, ny)), np.repeat(hh, ny, 1),
+                                np.repeat(hh**2, ny, 1)], axis=1)  # (case, 3n)
+    else:
+        scale = np.ones((ncase, r))
+    cols = np.concatenate([np.zeros((ncase, r, 1)),
+                           np.broadcast_to(np.eye(r), (ncase, r, r)) / scale[:, :, None]], axis=2)
+    parts = [cols[:, i * ny : (i + 1) * ny].copy() for i in range(3)]
     end = march(scheme, cache, h, steps_per_period, from_independent(cache, scheme, *parts))
-    final = independent(scheme, end)  # (case, 3n, r + 1)
+    final = independent(scheme, end) * scale[:, :, None]  # (case, 3n, r + 1), scaled
     p, Phi = final[..., 0], final[..., 1:]
     A = np.eye(r) - Phi
     s0 = np.empty_like(p)
     for c in range(ncase):
-        if np.linalg.cond(A[c]) < 1e12:
+        if np.linalg.cond(A[c]) < 1e13:
             s0[c] = np.linalg.solve(A[c], p[c])
-        else:
-            s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-10)[0]
+        else:  # exact resonance: the minimum-norm periodic state keeps results finite
+            s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-13)[0]
+    s0 = s0 / scale
     multipliers, vectors = np.linalg.eig(Phi)
     q0, v0, a0 = (s0[:, i * ny : (i + 1) * ny, None] for i in range(3))
     return (q0, v0, a0), multipliers, _resonant(multipliers, vectors, p, ny)
