@@ -1,0 +1,93 @@
+"""Cases per second of the KED solver on the reference four-bar (issue: batches and speed).
+
+Reference four-bar: ground 0.5, crank 0.1, coupler 0.45, rocker 0.35 m; steel; rectangle
+10 mm × 5 mm with 5 mm in-plane; rigid crank and rocker, flexible coupler; 100 rad/s;
+2 revolutions, from ``undeformed`` and with the ``periodic`` start. Discretization for 1 %
+error in peak coupler bending strain, measured by :func:`accuracy` against a 16-element,
+4096-steps-per-revolution solution: 8 elements, 128 steps per revolution.
+
+Run ``python benchmarks/run.py`` (``make bench``); results go to benchmarks/results.json and
+are printed as a table. Single process, one BLAS thread: this measures one core.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from ced.cases import make_batch  # noqa: E402
+from ced.scene import load_scene  # noqa: E402
+from ced.simulation import solve_batch  # noqa: E402
+
+REFERENCE = {
+    "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                  "rocker": 0.35},
+    "links": {"default": {"material": "steel",
+                          "section": {"shape": "rectangle", "height": 0.005, "width": 0.01}},
+              "crank": {"flexible": False}, "rocker": {"flexible": False}},
+    "drive": {"speed": 100.0},
+    "outputs": {"stations": 21},
+}
+ELEMENTS, STEPS = 8, 128
+BATCHES = (1, 10, 100, 1000)
+
+
+def scene(start: str, elements: int = ELEMENTS, steps: int = STEPS, speed: float = 100.0):
+    return load_scene({**REFERENCE, "drive": {"speed": speed},
+                       "discretization": {"elements_per_link": elements},
+                       "time": {"revolutions": 2, "steps_per_revolution": steps,
+                                "start": start}})
+
+
+def peak_strain(s: dict) -> float:
+    out = solve_batch(make_batch([s]))
+    return float(np.abs(out["bending_strain"][0, :, 1]).max())
+
+
+def accuracy(start: str) -> float:
+    """Relative error of peak coupler bending strain at the benchmark discretization."""
+    reference = peak_strain(scene(start, 16, 4096))
+    return abs(peak_strain(scene(start)) / reference - 1)
+
+
+def throughput(start: str, size: int, repeat: int) -> float:
+    """Cases per second for a batch of ``size`` cases (slightly different speeds, so that no
+    two cases are identical), best of ``repeat`` runs."""
+    scenes = [scene(start, speed=100.0 + 1e-3 * i) for i in range(size)]
+    batch = make_batch(scenes)
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        solve_batch(batch)
+        best = min(best, time.perf_counter() - t0)
+    return size / best
+
+
+def main() -> None:
+    results = {"machine": platform.machine(), "python": sys.version.split()[0],
+               "numpy": np.__version__, "elements": ELEMENTS, "steps_per_revolution": STEPS,
+               "revolutions": 2, "runs": []}
+    for start in ("undeformed", "periodic"):
+        error = accuracy(start)
+        for size in BATCHES:
+            rate = throughput(start, size, repeat=3 if size <= 100 else 1)
+            results["runs"].append({"start": start, "batch": size, "cases_per_second": rate,
+                                    "peak_strain_error": error})
+            print(f"{start:11s} batch {size:5d}: {rate:8.1f} cases/s "
+                  f"({1e3 / rate:7.2f} ms/case), peak strain error {error:.2%}", flush=True)
+    out = Path(__file__).with_name("results.json")
+    out.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
