@@ -91,6 +91,21 @@ class Layout:
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
+    def row_split(self, link: str) -> tuple[list[int], list[int], list[int]]:
+        """(selected local rows, their y columns, varying local rows) of ``link``'s block of P.
+
+        Interior DOFs of a flexible link are unknowns of their own: their rows of P are
+        constant unit rows. Only the other rows (end translations projected from the joints,
+        a rigid link's (u0, v0, φ)) vary in time; assembling Pᵀ A P then needs products with
+        those few rows only.
+        """
+        offset = len(self.free_coordinates)
+        selected = [(i, offset + c) for c, (name, i) in enumerate(self.interior_dofs)
+                    if name == link]
+        rows = [i for i, _ in selected]
+        varying = [i for i in range(self.link_sizes[link]) if i not in set(rows)]
+        return rows, [c for _, c in selected], varying
+
 
 def build_layout(
     topology: Topology,

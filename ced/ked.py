@@ -128,11 +128,16 @@ def build_model(batch: Batch) -> Model:
 
 
 def terms_at(
-    model: Model, times: np.ndarray, effects: set[str] | None = None
+    model: Model,
+    times: np.ndarray,
+    effects: set[str] | None = None,
+    extras: frozenset[str] = frozenset(),
 ) -> tuple[SystemTerms, np.ndarray]:
     """System terms and the projection value at arbitrary times (case, step).
 
     ``effects`` defaults to the scene's; the modal analysis passes them without damping.
+    ``extras`` asks for ``elastic_mass`` / ``elastic_stiffness`` as well (see
+    :class:`ced.effects.SystemTerms`).
     """
     batch, layout = model.batch, model.layout
     effects = model.effects if effects is None else effects
@@ -179,9 +184,11 @@ def terms_at(
             axial[name] = axial_force_coefficients(fx, b0[..., 0], b1[..., 0])
     acc_j = motion.joint_acceleration if has_inertia else 0.0
     joint_load = model.joint_mass[:, None, :, None] * (gravity[:, None, None, :] - acc_j)
+    if "damping" in effects and model.batch.scenes[0]["damping"]["model"] == "rayleigh":
+        extras = extras | {"elastic_mass", "elastic_stiffness"}
     terms = system_terms(layout, model.links, P, motion.link_angular_velocity,
                          motion.link_angular_acceleration, loads, axial, model.joint_mass,
-                         joint_load, effects)
+                         joint_load, effects, frozenset(extras))
     if "damping" in effects:
         _add_damping(model, terms)
     return terms, P[0]
@@ -200,7 +207,8 @@ def _modal_damping(model: Model, ratio: float) -> np.ndarray:
     """C = M Φ diag(2ζω) Φᵀ M from the frozen structure at t = 0 (mass-normalised Φ), held
     constant over the cycle: a phenomenological damping that gives every mode the ratio ζ."""
     t0 = np.zeros((model.batch.size, 1))
-    terms, _ = terms_at(model, t0, model.effects - {"damping"})
+    terms, _ = terms_at(model, t0, model.effects - {"damping"},
+                        frozenset({"elastic_mass", "elastic_stiffness"}))
     K, M = terms.elastic_stiffness[:, 0], terms.elastic_mass[:, 0]
     n = K.shape[-1]
     freq, shapes = natural_frequencies(K, M, n, shapes=True)
@@ -410,7 +418,7 @@ def _modal(model: Model, modal: dict) -> np.ndarray:
     n = modal["angles"]
     phase = 2.0 * math.pi * np.arange(n) / n
     times = phase[None, :] / model.batch.speed[:, None]
-    terms, _ = terms_at(model, times, model.effects - {"damping"})
+    terms, _ = terms_at(model, times, model.effects - {"damping"}, frozenset({"elastic_mass"}))
     modes = min(modal["modes"], model.layout.ny)
     freq = natural_frequencies(terms.stiffness, terms.elastic_mass, modes)
     if modes < modal["modes"]:
