@@ -195,7 +195,15 @@ def simulate(scenes) -> xr.Dataset:
         "axis": ("axis", np.array(["x", "y"], dtype=object), {"long_name": "global axis"}),
         **_case_coords(batches, order),
     }
-    if "station" in {d for name in data for d in io.VARIABLES[name][0]}:
+    used = {d for name in data for d in io.VARIABLES[name][0]}
+    if "modal_angle" in used:
+        n = first["modal"]["angles"]
+        coords["modal_angle"] = ("modal_angle", 2.0 * np.pi * np.arange(n) / n, {
+            "units": "rad", "long_name": "phase of the input cycle (crank angle − initial "
+                                        "angle for a rotating input)"})
+        coords["mode"] = ("mode", np.arange(1, first["modal"]["modes"] + 1),
+                          {"long_name": "mode number, by ascending frequency"})
+    if "station" in used:
         n = first["outputs"]["stations"]
         coords["station"] = ("station", np.linspace(0.0, 1.0, n),
                              {"units": "1", "long_name": "normalized position along the link"})
