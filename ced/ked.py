@@ -301,96 +301,107 @@ def _resonant(mu: np.ndarray, V: np.ndarray, p: np.ndarray, ny: int) -> np.ndarr
     return flagged
 
 
-def elastic_response(batch: Batch, motion, rigid_out: dict) -> dict[str, np.ndarray]:
-    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis)."""
+def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
+    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
+
+    ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
+    elastic ones (resonant, parametrically_unstable, large_deflection).
+    """
     model = build_model(batch)
     scene = batch.scenes[0]
-    layout = model.layout
-    ncase, ny = batch.size, layout.ny
-    every = scene["outputs"]["every"]
-    n_steps = batch.n_steps
-    h = batch.step_size
-    topo = layout.topology
-    out_steps = np.arange(0, n_steps + 1, every)
-    nlink, nst = len(topo.links), len(model.stations)
-    status = rigid_out["status"].copy()
+    status = status.copy()
     result: dict[str, np.ndarray] = {}
-
-    cache = _TermCache(model, h, n_steps)
-    qz = np.zeros((ncase, len(out_steps), layout.nz))
-    qz_static = np.zeros_like(qz)
-    dynamic = "elastic_inertia" in model.effects
-
-    if ny and not dynamic:
-        for idx, k in enumerate(out_steps):
-            M, C, K, F = cache(k)
-            y = np.linalg.solve(K, F[..., None])[..., 0]
-            qz[:, idx] = (cache.P[:, k - cache.start] @ y[..., None])[..., 0]
-        qz_static = qz
-    elif ny:
-        time_cfg = scene["time"]
-        scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
-        start_mode = time_cfg["start"]
-        if start_mode == "periodic":
-            spr = time_cfg["steps_per_revolution"]
-            periodic, mu, resonant = _shoot(scheme, cache, h, spr, ny, ncase)
-            cache = _TermCache(model, h, n_steps)
-            state = from_independent(cache, scheme, *periodic)
-            mu_abs = np.abs(mu)
-            result["floquet_multiplier_max"] = mu_abs.max(axis=-1)
-            status[mu_abs.max(axis=-1) > 1.0 + INSTABILITY_MARGIN] |= io.STATUS_FLAGS[
-                "parametrically_unstable"]
-            status[resonant] |= io.STATUS_FLAGS["resonant"]
-        else:
-            q0 = np.zeros((ncase, ny, 1))
-            v0 = np.zeros_like(q0)
-            if start_mode == "quasi_static":
-                q0, v0 = _quasi_static_start(model, h)
-            state = start_state(cache, q0, v0)
-
-        out_index = {int(k): i for i, k in enumerate(out_steps)}
-
-        def record(k, st):
-            i = out_index.get(k)
-            if i is None:
-                return
-            j = cache.load(k)
-            P0 = cache.P[:, j]
-            qz[:, i] = (P0 @ st[0])[..., 0]
-            K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
-            qz_static[:, i] = (P0 @ np.linalg.solve(K, F[..., None]))[..., 0]
-
-        march(scheme, cache, h, n_steps, state, record)
-
-    fields = {name: np.zeros((ncase, len(out_steps), nlink, nst)) for name in
-              ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")}
-    static_deflection = np.zeros_like(fields["deflection"])
-    offsets = layout.link_offsets
-    for i, name in enumerate(topo.links):
-        if name not in model.recovery:
-            continue
-        rows = slice(offsets[name], offsets[name] + layout.link_sizes[name])
-        sec = np.array([s["links"][name]["section"]["height"] for s in batch.scenes])
-        E = np.array([s["links"][name]["material"]["E"] for s in batch.scenes])
-        f = link_fields(qz[..., rows], model.recovery[name], model.stations, sec, E)
-        for key, value in f.items():
-            fields[key][:, :, i] = value
-        static_deflection[:, :, i] = link_fields(
-            qz_static[..., rows], model.recovery[name], model.stations, sec, E)["deflection"]
-    result.update(fields)
-    result["peak_deflection"] = peaks(fields["deflection"])
-    result["peak_stress"] = peaks(fields["stress"])
-    static_peak = peaks(static_deflection)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        amp = np.where(static_peak > 0, result["peak_deflection"] / static_peak, 1.0)
-    result["dynamic_amplification"] = amp
+    qz, qz_static = _response(model, status, result)
+    result.update(_recover(model, qz, qz_static))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= io.STATUS_FLAGS["large_deflection"]
-
-    if scene.get("modal") and ny:
+    if scene.get("modal") and model.layout.ny:
         result["natural_frequency"] = _modal(model, scene["modal"])
     result["status"] = status
     return result
+
+
+def _response(model: Model, status: np.ndarray, result: dict):
+    """Joint and link displacements z at the output steps, dynamic and quasi-static
+    (case, out_step, nz); adds the Floquet results of a periodic start to ``result``."""
+    batch, layout = model.batch, model.layout
+    scene = batch.scenes[0]
+    ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
+    out_steps = np.arange(0, n_steps + 1, scene["outputs"]["every"])
+    qz = np.zeros((ncase, len(out_steps), layout.nz))
+    qz_static = np.zeros_like(qz)
+    if not ny:
+        return qz, qz_static
+    cache = _TermCache(model, h, n_steps)
+
+    def static(j):
+        K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
+        return (cache.P[:, j] @ np.linalg.solve(K, F[..., None]))[..., 0]
+
+    if "elastic_inertia" not in model.effects:  # quasi-static: K q = F at each instant
+        for i, k in enumerate(out_steps):
+            qz[:, i] = static(cache.load(k))
+        return qz, qz
+
+    time_cfg = scene["time"]
+    scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
+    if time_cfg["start"] == "periodic":
+        periodic, mu, resonant = _shoot(scheme, cache, h, time_cfg["steps_per_revolution"],
+                                        ny, ncase)
+        cache = _TermCache(model, h, n_steps)
+        state = from_independent(cache, scheme, *periodic)
+        largest = np.abs(mu).max(axis=-1)
+        result["floquet_multiplier_max"] = largest
+        status[largest > 1.0 + INSTABILITY_MARGIN] |= io.STATUS_FLAGS["parametrically_unstable"]
+        status[resonant] |= io.STATUS_FLAGS["resonant"]
+    else:
+        q0 = np.zeros((ncase, ny, 1))
+        v0 = np.zeros_like(q0)
+        if time_cfg["start"] == "quasi_static":
+            q0, v0 = _quasi_static_start(model, h)
+        state = start_state(cache, q0, v0)
+
+    out_index = {int(k): i for i, k in enumerate(out_steps)}
+
+    def record(k, st):
+        i = out_index.get(k)
+        if i is not None:
+            j = cache.load(k)
+            qz[:, i] = (cache.P[:, j] @ st[0])[..., 0]
+            qz_static[:, i] = static(j)
+
+    march(scheme, cache, h, n_steps, state, record)
+    return qz, qz_static
+
+
+def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray) -> dict[str, np.ndarray]:
+    """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification."""
+    batch, layout = model.batch, model.layout
+    topo = layout.topology
+    ncase, nout = qz.shape[:2]
+    shape = (ncase, nout, len(topo.links), len(model.stations))
+    fields = {name: np.zeros(shape) for name in
+              ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")}
+    static_deflection = np.zeros(shape)
+    offsets = layout.link_offsets
+    for i, name in enumerate(topo.links):
+        if name not in model.recovery:
+            continue  # rigid link: no strain
+        rows = slice(offsets[name], offsets[name] + layout.link_sizes[name])
+        height = _link_parameter(batch, name, "section", "height")
+        E = _link_parameter(batch, name, "material", "E")
+        for key, value in link_fields(qz[..., rows], model.recovery[name], model.stations,
+                                      height, E).items():
+            fields[key][:, :, i] = value
+        static_deflection[:, :, i] = link_fields(
+            qz_static[..., rows], model.recovery[name], model.stations, height,
+            E)["deflection"]
+    peak = peaks(fields["deflection"])
+    static_peak = peaks(static_deflection)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        amplification = np.where(static_peak > 0, peak / static_peak, 1.0)
+    return {**fields, "peak_deflection": peak, "peak_stress": peaks(fields["stress"]),
+            "dynamic_amplification": amplification}
 
 
 def _scheme_params(time_cfg: dict) -> dict:

@@ -35,6 +35,8 @@ def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
     """
     scene = batch.scenes[0]
     effects = scene["effects"]
+    if effects == "auto":
+        raise NotImplementedError("effects: auto must be resolved before solving")
     every = scene["outputs"]["every"]
     motion = batch.rigid_motion()
     forces = inverse_dynamics(
@@ -55,10 +57,14 @@ def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
     flags = np.zeros(batch.size, np.uint8)
     flags[motion.singular.any(axis=1)] |= io.STATUS_FLAGS["near_singular"]
     out["status"] = flags
+    if scene["discretization"] == "auto":
+        raise NotImplementedError(
+            "discretization: auto is not available yet; give discretization.formulation and "
+            "discretization.elements_per_link")
     if scene["discretization"]["formulation"] != "rigid":
         from .ked import elastic_response  # imported lazily: rigid runs need no FE machinery
 
-        out.update(elastic_response(batch, motion, out))
+        out.update(elastic_response(batch, out["status"]))
     return out
 
 
