@@ -91,6 +91,18 @@ class Layout:
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
+    def interior_rows(self) -> np.ndarray:
+        """z index of every interior DOF, in y order (after the joint coordinates)."""
+        off = self.link_offsets
+        return np.array([off[name] + i for name, i in self.interior_dofs], int)
+
+    def expand(self, P0: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """z = P y from the joint-coordinate columns ``P0`` (…, nz, nfree) and y (…, ny)."""
+        nfree = P0.shape[-1]
+        z = (P0 @ y[..., :nfree, None])[..., 0]
+        z[..., self.interior_rows()] += y[..., nfree:]
+        return z
+
     def row_split(self, link: str) -> tuple[list[int], list[int], list[int]]:
         """(selected local rows, their y columns, varying local rows) of ``link``'s block of P.
 
@@ -178,7 +190,11 @@ def projection(
     link_velocity: np.ndarray,
     link_acceleration: np.ndarray,
 ) -> np.ndarray:
-    """Jet of P(t) with z = P y, shape (3, case, step, nz, ny).
+    """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
+
+    z = P y where y = (joint coordinates, interior DOFs); the interior columns of P are
+    constant unit columns (each interior DOF is its own z entry), so only the first nfree
+    columns are built; :meth:`Layout.expand` applies the whole P.
 
     Parameters
     ----------
@@ -222,7 +238,7 @@ def projection(
             E[..., c, :] = solve[..., r, :]
     HE = jets.matmul(H, E)  # joint translations from the free coordinates
 
-    P = np.zeros((3,) + shape + (layout.nz, layout.ny))
+    P = np.zeros((3,) + shape + (layout.nz, len(free)))
     joint_index = {j: k for k, j in enumerate(topo.joints)}
     for j, off in layout.joint_offsets.items():
         k = joint_index[j]
@@ -247,6 +263,4 @@ def projection(
             P[..., off, : len(free)] = local_f[..., 0, :]
             P[..., off + 1, : len(free)] = local_f[..., 1, :]
             P[..., off + 2, : len(free)] = (local_s[..., 1, :] - local_f[..., 1, :]) / L
-    for c, (name, i) in enumerate(layout.interior_dofs):
-        P[0, ..., link_off[name] + i, len(free) + c] = 1.0
     return P

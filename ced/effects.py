@@ -82,29 +82,41 @@ def axial_force_coefficients(
     return np.stack([-first_force_local_x, -load_constant_x, -0.5 * load_linear_x])
 
 
-class _Split:
-    """One block of P split into constant unit rows S and time-varying rows T (see
-    :meth:`ced.assembly.Layout.row_split`), so that Pᵀ A P = SᵀAS + SᵀA T + TᵀA S + TᵀA T
-    costs products with the few varying rows only.
+def split_order(layout: Layout, link: str) -> np.ndarray:
+    """Local DOF order with the interior (constant unit) rows of P first, see
+    :meth:`ced.assembly.Layout.row_split`; link matrices are stored in this order."""
+    rows, _, varying = layout.row_split(link)
+    return np.array(list(rows) + list(varying), int)
 
-    Local matrices are permuted once (:meth:`permute`) to put the unit rows first, so every
-    block is a view; the unit rows' y columns of one link are contiguous. The varying rows
-    depend on the joint coordinates only (the first ``nfree`` columns of y), never on interior
-    DOFs, so T is kept to those columns.
+
+def permute(data: LinkData, order: np.ndarray) -> LinkData:
+    """``data`` with its local DOFs in ``order`` (matrices, loads)."""
+    def both(a):
+        return a[..., order, :][..., :, order]
+    return LinkData(
+        mass=both(data.mass), translational_mass=both(data.translational_mass),
+        stiffness=both(data.stiffness), gyroscopic=both(data.gyroscopic),
+        geometric_stiffness=both(data.geometric_stiffness),
+        load_constant=data.load_constant[:, order], load_linear=data.load_linear[:, order],
+        moment_load=data.moment_load[:, order], mass_per_length=data.mass_per_length,
+        rotary_inertia_per_length=data.rotary_inertia_per_length)
+
+
+class _Split:
+    """One link block of P split into constant unit rows S and time-varying rows T, so that
+    Pᵀ A P = SᵀAS + SᵀA T + TᵀA S + TᵀA T costs products with the few varying rows only.
+
+    Link matrices are stored permuted (:func:`split_order`) with the unit rows first, so
+    every block is a view; the unit rows' y columns of one link are contiguous. The varying
+    rows depend on the joint coordinates only (the nfree columns that P carries).
     """
 
-    def __init__(self, P: np.ndarray, rows, columns, varying, nfree: int):
-        self.order = np.array(list(rows) + list(varying), int)
+    def __init__(self, P: np.ndarray, rows, columns, varying):
         self.ns = len(rows)
+        self.nf = P.shape[-1]
         self.cols = slice(columns[0], columns[-1] + 1) if rows else slice(0, 0)
-        assert not rows or list(columns) == list(range(columns[0], columns[-1] + 1))
-        self.nf = nfree
-        self.T = [P[d][..., varying, :nfree] for d in range(3)]  # (case, step, nv, nfree)
+        self.T = [P[d][..., varying, :] for d in range(3)]  # (case, step, nv, nfree)
         self.TT = [np.swapaxes(t, -1, -2) for t in self.T]
-
-    def permute(self, A: np.ndarray) -> np.ndarray:
-        """A local (…, n, n) matrix in the split order."""
-        return A[..., self.order, :][..., :, self.order]
 
     def sandwich(self, out: np.ndarray, A: np.ndarray, left: int = 0, right: int = 0) -> None:
         """out += P⁽ˡᵉᶠᵗ⁾ᵀ A P⁽ʳⁱᵍʰᵗ⁾ for a permuted A, (case, n, n) or (case, step, n, n);
@@ -114,13 +126,12 @@ class _Split:
         ns, c, f = self.ns, self.cols, slice(0, self.nf)
         if self.nf:
             out[..., f, f] += self.TT[left] @ (A[..., ns:, ns:] @ self.T[right])
-        if ns:
-            if left == 0 and self.nf:
+            if ns and left == 0:
                 out[..., c, f] += A[..., :ns, ns:] @ self.T[right]
-            if right == 0 and self.nf:
+            if ns and right == 0:
                 out[..., f, c] += self.TT[left] @ A[..., ns:, :ns]
-            if left == 0 and right == 0:
-                out[..., c, c] += A[..., :ns, :ns]
+        if ns and left == 0 and right == 0:
+            out[..., c, c] += A[..., :ns, :ns]
 
     def apply_transpose(self, out: np.ndarray, f: np.ndarray) -> None:
         """out += P⁽⁰⁾ᵀ f for a permuted local vector f (case, step, n)."""
@@ -128,6 +139,14 @@ class _Split:
             out[..., : self.nf] += (self.TT[0] @ f[..., self.ns:, None])[..., 0]
         if self.ns:
             out[..., self.cols] += f[..., : self.ns]
+
+
+def _combine(coefficients: list[np.ndarray], matrices: list[np.ndarray]) -> np.ndarray:
+    """Σ_k c_k(t) A_k as one batched matmul: (case, step, m) @ (case, m, n²) → (case, step, n, n)."""
+    c = np.stack(coefficients, axis=-1)
+    A = np.stack(matrices, axis=1)
+    n = A.shape[-1]
+    return (c @ A.reshape(A.shape[0], A.shape[1], n * n)).reshape(c.shape[:2] + (n, n))
 
 
 def system_terms(
@@ -175,60 +194,59 @@ def system_terms(
     K_el = np.zeros(shape) if "elastic_stiffness" in extras else None
     centrifugal = "centrifugal" in effects
     offsets = layout.link_offsets
-    nfree = len(layout.free_coordinates)
     for i, name in enumerate(topo.links):
-        data = links[name]
+        data = links[name]  # stored in split order
         block = slice(offsets[name], offsets[name] + layout.link_sizes[name])
-        split = _Split(P[:, :, :, block], *layout.row_split(name), nfree)
-        mass = split.permute(data.mass)
-        G = split.permute(data.gyroscopic)[:, None]
-        w = omega[..., i][..., None, None]
-        a = alpha[..., i][..., None, None]
+        split = _Split(P[:, :, :, block], *layout.row_split(name))
+        w = omega[..., i]
+        a = alpha[..., i]
         if M_el is not None:
-            split.sandwich(M_el, mass)
+            split.sandwich(M_el, data.mass)
         elif M is not None:
-            split.sandwich(M, mass)
+            split.sandwich(M, data.mass)
         if C is not None:
-            split.sandwich(C, 2.0 * w * G)
-            split.sandwich(C, 2.0 * mass, 0, 1)
-        stiffness = split.permute(data.stiffness)[:, None] if layout.flexible[name] else None
-        if K_el is not None and stiffness is not None:
-            split.sandwich(K_el, stiffness)  # added to K once, at the end
-            stiffness = None
+            split.sandwich(C, 2.0 * w[..., None, None] * data.gyroscopic[:, None])
+            split.sandwich(C, 2.0 * data.mass, 0, 1)
+        coefficients, matrices = [], []
+        if layout.flexible[name]:
+            if K_el is not None:
+                split.sandwich(K_el, data.stiffness)  # added to K once, at the end
+            else:
+                coefficients.append(np.ones_like(w))
+                matrices.append(data.stiffness)
         if centrifugal:
-            kc = a * G - (w * w) * split.permute(data.translational_mass)[:, None]
-            stiffness = kc if stiffness is None else stiffness + kc
-            split.sandwich(K, 2.0 * w * G, 0, 1)
-            split.sandwich(K, mass, 0, 2)
+            coefficients += [a, -w * w]
+            matrices += [data.gyroscopic, data.translational_mass]
+            split.sandwich(K, 2.0 * w[..., None, None] * data.gyroscopic[:, None], 0, 1)
+            split.sandwich(K, data.mass, 0, 2)
         if axial is not None:
-            kg = np.einsum("kcs,cknm->csnm", axial[name], split.permute(data.geometric_stiffness))
-            stiffness = kg if stiffness is None else stiffness + kg
-        if stiffness is not None:
-            split.sandwich(K, stiffness)
+            coefficients += list(axial[name])
+            matrices += list(np.moveaxis(data.geometric_stiffness, 1, 0))
+        if coefficients:
+            split.sandwich(K, _combine(coefficients, matrices))
         b0, b1, m0 = link_loads[name]
-        order = split.order
-        f = np.einsum("cnj,csj->csn", data.load_constant[:, order], b0)
-        f += np.einsum("cnj,csj->csn", data.load_linear[:, order], b1)
+        f = b0 @ np.swapaxes(data.load_constant, -1, -2) + b1 @ np.swapaxes(
+            data.load_linear, -1, -2)
         if m0 is not None:
-            f += m0[..., None] * data.moment_load[:, None, order]
+            f += m0[..., None] * data.moment_load[:, None, :]
         split.apply_transpose(F, f)
+    nf = P.shape[-1]
     for k, joint in enumerate(topo.joints):
         m = joint_mass[:, k]
-        if not np.any(m):
+        if not np.any(m) or not nf:
             continue
         off = layout.joint_offsets[joint]
         P0, P1, P2 = (P[d, ..., off : off + 2, :] for d in range(3))
         mm = m[:, None, None, None]
         P0T = np.swapaxes(P0, -1, -2)
-        if M_el is not None:
-            M_el += mm * (P0T @ P0)
-        elif M is not None:
-            M += mm * (P0T @ P0)
+        target = M_el if M_el is not None else M
+        if target is not None:
+            target[..., :nf, :nf] += mm * (P0T @ P0)
         if C is not None:
-            C += 2.0 * mm * (P0T @ P1)
+            C[..., :nf, :nf] += 2.0 * mm * (P0T @ P1)
         if centrifugal:
-            K += mm * (P0T @ P2)
-        F += (P0T @ joint_load[:, :, k, :, None])[..., 0]
+            K[..., :nf, :nf] += mm * (P0T @ P2)
+        F[..., :nf] += (P0T @ joint_load[:, :, k, :, None])[..., 0]
     if K_el is not None:
         K += K_el
     return SystemTerms(M, C, K, F, M_el, K_el)

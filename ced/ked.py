@@ -17,7 +17,8 @@ from . import io
 from .assembly import Layout, build_layout, projection
 from .cases import Batch
 from .dynamics import inverse_dynamics
-from .effects import LinkData, SystemTerms, axial_force_coefficients, system_terms
+from .effects import (LinkData, SystemTerms, axial_force_coefficients, permute, split_order,
+                      system_terms)
 from .integrators import NewmarkFamily, make_integrator
 from .modal import natural_frequencies
 from .recovery import link_fields, peaks
@@ -117,6 +118,7 @@ def build_model(batch: Batch) -> Model:
         sizes[name] = m.mass.shape[-1]
     slider = "C" if batch.mechanism_type == "slider_crank" else None
     layout = build_layout(topo, flexible, sizes, ends, clamp_dof, slider_joint=slider)
+    links = {name: permute(data, split_order(layout, name)) for name, data in links.items()}
     joint_mass = batch.bodies.point_mass.copy()
     if slider is not None:
         joint_mass[:, topo.joint_names.index(slider)] += batch.bodies.slider_mass
@@ -336,7 +338,7 @@ def _response(model: Model, status: np.ndarray, result: dict):
 
     def static(j):
         K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
-        return (cache.P[:, j] @ np.linalg.solve(K, F[..., None]))[..., 0]
+        return layout.expand(cache.P[:, j], np.linalg.solve(K, F[..., None])[..., 0])
 
     if "elastic_inertia" not in model.effects:  # quasi-static: K q = F at each instant
         for i, k in enumerate(out_steps):
@@ -367,7 +369,7 @@ def _response(model: Model, status: np.ndarray, result: dict):
         i = out_index.get(k)
         if i is not None:
             j = cache.load(k)
-            qz[:, i] = (cache.P[:, j] @ st[0])[..., 0]
+            qz[:, i] = layout.expand(cache.P[:, j], st[0][..., 0])
             qz_static[:, i] = static(j)
 
     march(scheme, cache, h, n_steps, state, record)

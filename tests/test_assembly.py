@@ -46,10 +46,10 @@ def test_projection_satisfies_joint_constraints(kind, flexible):
     layout = _layout(kind, flexible)
     times = np.linspace(0.0, 0.15, 13)[None]
     motion = _motion(kind, times)
-    P = _P(layout, motion)[0, 0]  # (step, nz, ny)
+    P = _P(layout, motion)[0, 0]  # (step, nz, nfree)
     rng = np.random.default_rng(0)
     y = rng.normal(size=(layout.ny,))
-    z = P @ y
+    z = layout.expand(P, np.broadcast_to(y, P.shape[:1] + y.shape).copy())
     topo = layout.topology
     joint = {j: z[:, off : off + 2] for j, off in layout.joint_offsets.items()}
     for j in topo.ground_joints:
