@@ -4,7 +4,9 @@ Reference four-bar: ground 0.5, crank 0.1, coupler 0.45, rocker 0.35 m; steel; r
 10 mm × 5 mm with 5 mm in-plane; rigid crank and rocker, flexible coupler; 100 rad/s;
 2 revolutions, from ``undeformed`` and with the ``periodic`` start. Discretization for 1 %
 error in peak coupler bending strain, measured by :func:`accuracy` against a 16-element,
-4096-steps-per-revolution solution: 8 elements, 128 steps per revolution.
+4096-steps-per-revolution full FE solution: 8 elements, 128 steps per revolution — all FE DOFs
+(``full``), and reduced to 4 fixed-interface modes plus static load vectors per flexible link
+(``reduced``, :mod:`ced.reduction`).
 
 Run ``python benchmarks/run.py`` (``make bench``); results go to benchmarks/results.json and
 are printed as a table. Single process, one BLAS thread: this measures one core.
@@ -38,12 +40,15 @@ REFERENCE = {
     "outputs": {"stations": 21},
 }
 ELEMENTS, STEPS = 8, 128
+MODELS = {"full": 0, "reduced": 4}  # modes_per_link
 BATCHES = (1, 10, 100, 1000)
 
 
-def scene(start: str, elements: int = ELEMENTS, steps: int = STEPS, speed: float = 100.0):
+def scene(start: str, elements: int = ELEMENTS, steps: int = STEPS, speed: float = 100.0,
+          modes: int = 0):
     return load_scene({**REFERENCE, "drive": {"speed": speed},
-                       "discretization": {"elements_per_link": elements},
+                       "discretization": {"elements_per_link": elements,
+                                          "modes_per_link": modes},
                        "time": {"revolutions": 2, "steps_per_revolution": steps,
                                 "start": start}})
 
@@ -53,16 +58,16 @@ def peak_strain(s: dict) -> float:
     return float(np.abs(out["bending_strain"][0, :, 1]).max())
 
 
-def accuracy(start: str) -> float:
+def accuracy(start: str, modes: int) -> float:
     """Relative error of peak coupler bending strain at the benchmark discretization."""
     reference = peak_strain(scene(start, 16, 4096))
-    return abs(peak_strain(scene(start)) / reference - 1)
+    return abs(peak_strain(scene(start, modes=modes)) / reference - 1)
 
 
-def throughput(start: str, size: int, repeat: int) -> float:
+def throughput(start: str, size: int, repeat: int, modes: int) -> float:
     """Cases per second for a batch of ``size`` cases (slightly different speeds, so that no
     two cases are identical), best of ``repeat`` runs."""
-    scenes = [scene(start, speed=100.0 + 1e-3 * i) for i in range(size)]
+    scenes = [scene(start, speed=100.0 + 1e-3 * i, modes=modes) for i in range(size)]
     batch = make_batch(scenes)
     best = np.inf
     for _ in range(repeat):
@@ -76,14 +81,16 @@ def main() -> None:
     results = {"machine": platform.machine(), "python": sys.version.split()[0],
                "numpy": np.__version__, "elements": ELEMENTS, "steps_per_revolution": STEPS,
                "revolutions": 2, "runs": []}
-    for start in ("undeformed", "periodic"):
-        error = accuracy(start)
-        for size in BATCHES:
-            rate = throughput(start, size, repeat=3 if size <= 100 else 1)
-            results["runs"].append({"start": start, "batch": size, "cases_per_second": rate,
-                                    "peak_strain_error": error})
-            print(f"{start:11s} batch {size:5d}: {rate:8.1f} cases/s "
-                  f"({1e3 / rate:7.2f} ms/case), peak strain error {error:.2%}", flush=True)
+    for model, modes in MODELS.items():
+        for start in ("undeformed", "periodic"):
+            error = accuracy(start, modes)
+            for size in BATCHES:
+                rate = throughput(start, size, 3 if size <= 100 else 1, modes)
+                results["runs"].append({"model": model, "modes_per_link": modes,
+                                        "start": start, "batch": size,
+                                        "cases_per_second": rate, "peak_strain_error": error})
+                print(f"{model:8s} {start:11s} batch {size:5d}: {rate:8.1f} cases/s "
+                      f"({1e3 / rate:7.2f} ms/case), peak strain error {error:.2%}", flush=True)
     out = Path(__file__).with_name("results.json")
     out.write_text(json.dumps(results, indent=2) + "\n")
     print(f"wrote {out}")

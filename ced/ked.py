@@ -22,6 +22,7 @@ from .effects import (LinkData, SystemTerms, axial_force_coefficients, permute, 
 from .integrators import NewmarkFamily, make_integrator
 from .modal import natural_frequencies
 from .recovery import link_fields, peaks
+from .reduction import craig_bampton
 from .stepping import from_independent, independent, march
 from .stepping import start as start_state
 
@@ -119,6 +120,9 @@ def build_model(batch: Batch) -> Model:
     slider = "C" if batch.mechanism_type == "slider_crank" else None
     layout = build_layout(topo, flexible, sizes, ends, clamp_dof, slider_joint=slider)
     links = {name: permute(data, split_order(layout, name)) for name, data in links.items()}
+    modes = scene["discretization"].get("modes_per_link", 0)
+    if modes and any(flexible.values()):
+        layout, links, recovery = _reduce(layout, links, recovery, modes, slider)
     joint_mass = batch.bodies.point_mass.copy()
     if slider is not None:
         joint_mass[:, topo.joint_names.index(slider)] += batch.bodies.slider_mass
@@ -127,6 +131,30 @@ def build_model(batch: Batch) -> Model:
     if "damping" in effects and scene["damping"]["model"] == "modal":
         model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
     return model
+
+
+def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str | None):
+    """Craig–Bampton reduction of every flexible link (:mod:`ced.reduction`) and the layout
+    of the reduced blocks: interior = modal coordinates, then the boundary rows unchanged."""
+    topo = layout.topology
+    sizes, ends = dict(layout.link_sizes), dict(layout.end_dofs)
+    clamp = layout.clamp_dof
+    links, recovery = dict(links), dict(recovery)
+    for name in topo.links:
+        if not layout.flexible[name]:
+            continue
+        rows, _, varying = layout.row_split(name)
+        order = split_order(layout, name)
+        links[name], basis = craig_bampton(links[name], len(rows), modes)
+        n_interior = links[name].mass.shape[-1] - len(varying)
+        recovery[name] = {key: op[..., order] @ basis for key, op in recovery[name].items()}
+        position = {local: n_interior + j for j, local in enumerate(varying)}
+        sizes[name] = n_interior + len(varying)
+        ends[name] = tuple((position[u], position[v]) for u, v in layout.end_dofs[name])
+        if name == topo.input_link and clamp is not None:
+            clamp = position[clamp]
+    return (build_layout(topo, layout.flexible, sizes, ends, clamp, slider_joint=slider),
+            links, recovery)
 
 
 def terms_at(

@@ -140,6 +140,9 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
         "formulation": (Choice(FORMULATIONS), "euler_bernoulli"),
         "elements_per_link": (Int(1, 512), 8),
         "elements_across": (Int(1, 64, hint="plane_stress only"), 2),
+        "modes_per_link": (Int(0, 512, hint="0 keeps every FE DOF; n > 0 reduces each "
+                               "flexible link to n fixed-interface modes plus static load "
+                               "vectors"), 0),
     },
     "time": {
         "revolutions": (Real(low=0.0, low_open=True, unit="input periods"), 2.0),
