@@ -6,6 +6,7 @@ is recorded in ``status``/``message`` and the others survive.
 """
 from __future__ import annotations
 
+import json
 import time as _time
 from collections.abc import Iterable, Mapping
 
@@ -16,7 +17,7 @@ from . import io
 from .cases import Batch, make_batch, structure_key
 from .dynamics import inverse_dynamics
 from .mechanism import topology
-from .scene import load_scene
+from .scene import EFFECTS, load_scene
 
 __all__ = ["simulate", "solve_batch"]
 
@@ -160,6 +161,14 @@ def simulate(scenes) -> xr.Dataset:
     normalized = [load_scene(s) for s in _as_list(scenes)]
     if not normalized:
         raise ValueError("simulate: no scenes given")
+    auto_reports = None
+    if any(s["effects"] == "auto" for s in normalized):
+        from .auto import resolve_auto
+
+        resolved = [resolve_auto(s) for s in normalized]
+        normalized = [scene for scene, _ in resolved]
+        auto_reports = [json.dumps(report, sort_keys=True) if report else "" for _, report in
+                        resolved]
     kinds = {s["mechanism"]["type"] for s in normalized}
     if len(kinds) > 1:
         raise ValueError(f"simulate: all scenes must share mechanism.type, got {sorted(kinds)}")
@@ -189,6 +198,8 @@ def simulate(scenes) -> xr.Dataset:
     data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
     data["solve_time"] = np.array(times)[order]
     data["message"] = np.array(messages, dtype=object)[order]
+    if auto_reports is not None:
+        data["effects_auto"] = np.array(auto_reports, dtype=object)
 
     first = normalized[0]
     topo = topology(first["mechanism"]["type"])
@@ -213,5 +224,6 @@ def simulate(scenes) -> xr.Dataset:
         n = first["outputs"]["stations"]
         coords["station"] = ("station", np.linspace(0.0, 1.0, n),
                              {"units": "1", "long_name": "normalized position along the link"})
-    effects = first["effects"] if isinstance(first["effects"], list) else []
+    effects = sorted({e for s in normalized for e in s["effects"]},
+                     key=EFFECTS.index)
     return io.make_dataset(data, coords, scenes=normalized, effects=effects)

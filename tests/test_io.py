@@ -101,3 +101,15 @@ def test_write_is_atomic_and_leaves_no_temporary(tmp_path, rigid, monkeypatch):
         write_dataset(rigid, path)
     assert path.read_bytes() == before  # the old file is intact
     assert os.listdir(tmp_path) == ["out.nc"]  # and no temporary is left behind
+
+
+def test_effects_auto_is_resolved_and_recorded():
+    scene = {**ELASTIC, "effects": "auto", "time": {**ELASTIC["time"], "start": "undeformed"}}
+    ds = simulate(scene)
+    report = json.loads(str(ds.effects_auto.values[0]))
+    chosen = json.loads(ds.attrs["scenes"])[0]["effects"]
+    assert isinstance(chosen, list) and "inertia" in chosen
+    for effect, entry in report.items():
+        assert entry["included"] == (effect in chosen)
+        assert np.isfinite(entry["estimate"]) and entry["reason"]
+    assert ds.attrs["effects"].split() == chosen
