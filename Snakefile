@@ -1,8 +1,15 @@
-# ced study pipeline: simulate chunks of cases -> reduce per family -> figures -> report.
+# ced study pipeline: simulate chunks of cases -> reduce per family -> maps, figures -> report.
 # Nothing heavy at parse time: the case table is a pure function of the config (ced.study).
+#
+#   snakemake --profile workflow/profiles/default                       # default study
+#   snakemake --profile workflow/profiles/default --configfile config/studies/<name>.yaml
+#   snakemake --profile workflow/profiles/default --report results/<study>/report.html
+#
+# The profiles set replace-workflow-config: a --configfile study replaces config/config.yaml
+# instead of being merged into it (Snakemake merges nested keys by default).
 from snakemake.utils import validate
 
-from ced.study import chunks
+from ced.study import case_config, check_config, modal_requested
 
 
 configfile: "config/config.yaml"
@@ -11,21 +18,40 @@ configfile: "config/config.yaml"
 validate(config, "workflow/schemas/config.schema.yaml")
 
 STUDY = config["study"]
-CHUNKS = chunks(config)
+CHUNKS = check_config(config)
 FAMILIES = sorted(CHUNKS)
+CAMPBELL = modal_requested(config)
+
+
+report: "workflow/report/workflow.rst"
 
 
 wildcard_constraints:
+    study=STUDY,
     family="|".join(FAMILIES) if FAMILIES else "none",
     chunk=r"\d+",
 
 
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/reduce.smk"
+include: "workflow/rules/figures.smk"
+
+
+localrules:
+    all,
 
 
 rule all:
     default_target: True
     input:
         expand("results/{study}/maps/{family}.nc", study=STUDY, family=FAMILIES),
-        expand("results/{study}/figures/overview.png", study=STUDY),
+        expand("results/{study}/maps/{family}_grid.nc", study=STUDY, family=FAMILIES),
+        expand(
+            "results/{study}/figures/overview.{ext}", study=STUDY, ext=("png", "svg")
+        ),
+        expand(
+            "results/{study}/figures/campbell/{family}.{ext}",
+            study=STUDY,
+            family=FAMILIES if CAMPBELL else [],
+            ext=("png", "svg"),
+        ),

@@ -43,15 +43,15 @@ _CHUNK_BUDGET = 8192
 
 
 def _element_module(formulation: str):
-    if formulation == "euler_bernoulli":
-        from .elements import euler_bernoulli as module
-    elif formulation == "timoshenko":
-        from .elements import timoshenko as module
-    else:
+    """The element module of a flexible-link formulation (see :mod:`ced.elements`)."""
+    from . import elements
+
+    if formulation == "rigid" or formulation not in elements.FORMULATIONS:
+        available = sorted(set(elements.FORMULATIONS) - {"rigid"})
         raise NotImplementedError(
-            f"discretization.formulation: {formulation!r} is not available yet; "
-            "use euler_bernoulli, timoshenko or rigid")
-    return module
+            f"discretization.formulation: {formulation!r} has no element model yet; "
+            f"available: {available} (and rigid)")
+    return elements.formulation(formulation)
 
 
 @dataclass

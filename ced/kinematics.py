@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mechanism import Topology, topology
+from .mechanism import GRASHOF_RTOL, Topology, topology
 
 __all__ = ["InputMotion", "RigidMotion", "input_motion", "four_bar", "slider_crank", "single_link"]
 
@@ -112,19 +112,22 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
 
-def _track_branch(candidates: np.ndarray, start_index: np.ndarray) -> np.ndarray:
+def _track_branch(
+    candidates: np.ndarray, start_index: np.ndarray, touching: np.ndarray
+) -> np.ndarray:
     """Pick, step by step, the candidate angle that continues the motion smoothly.
 
-    ``candidates`` (2, case, step) are the two assembly solutions. Where the two stay apart the
-    choice never changes; where they touch (change points) the candidate nearest to the
+    ``candidates`` (2, case, step) are the two assembly solutions. The branches of a linkage
+    touch only at a change point (S + L = P + Q, ``touching``); elsewhere the choice never
+    changes, however close the branches come. Where they touch, the candidate nearest to the
     linear extrapolation of the last two steps is kept, so the motion passes straight through
     the singular configuration instead of reflecting off it. Deterministic.
     """
     gap = np.abs(np.angle(np.exp(1j * (candidates[0] - candidates[1]))))
     ncase, nstep = gap.shape
     choice = np.broadcast_to(start_index[:, None], (ncase, nstep)).copy()
-    # Only cases whose branches come close need the sequential pass.
-    close = gap.min(axis=1) < 1e-2
+    # Only change-point cases whose branches come close need the sequential pass.
+    close = np.asarray(touching, bool) & (gap.min(axis=1) < 1e-2)
     if not close.any() or nstep < 3:
         return np.take_along_axis(candidates, choice[None], axis=0)[0]
     cand = candidates[:, close]
@@ -188,7 +191,10 @@ def four_bar(
     beta = np.arccos(cos_beta)
     candidates = np.stack([psi + beta, psi - beta])  # C left of B→D, C right of B→D
     start = np.where(np.asarray(branch)[:] > 0, 0, 1)
-    th3 = np.unwrap(_track_branch(candidates, start), axis=1)
+    ordered = np.sort(np.concatenate([g, a, b, c], axis=1), axis=1)
+    s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
+    touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
+    th3 = np.unwrap(_track_branch(candidates, start, touching), axis=1)
     C = B + b[..., None] * _unit(th3)
     th4 = np.unwrap(np.arctan2(C[..., 1] - D[..., 1], C[..., 0] - D[..., 0]), axis=1)
 

@@ -204,9 +204,9 @@ def simulate(scenes) -> xr.Dataset:
     first = normalized[0]
     topo = topology(first["mechanism"]["type"])
     coords = {
-        "case": ("case", np.arange(len(normalized)), {"long_name": "case index"}),
+        "case": ("case", np.arange(len(normalized)), {"units": "1", "long_name": "case index"}),
         "step": ("step", np.arange(next(iter(n_out))) * first["outputs"]["every"],
-                 {"long_name": "time step index"}),
+                 {"units": "1", "long_name": "time step index"}),
         "link": ("link", np.array(topo.link_names, dtype=object), {"long_name": "link"}),
         "joint": ("joint", np.array(topo.joint_names, dtype=object), {"long_name": "joint"}),
         "axis": ("axis", np.array(["x", "y"], dtype=object), {"long_name": "global axis"}),
@@ -219,7 +219,7 @@ def simulate(scenes) -> xr.Dataset:
             "units": "rad", "long_name": "phase of the input cycle (crank angle − initial "
                                         "angle for a rotating input)"})
         coords["mode"] = ("mode", np.arange(1, first["modal"]["modes"] + 1),
-                          {"long_name": "mode number, by ascending frequency"})
+                          {"units": "1", "long_name": "mode number, by ascending frequency"})
     if "station" in used:
         n = first["outputs"]["stations"]
         coords["station"] = ("station", np.linspace(0.0, 1.0, n),

@@ -1,9 +1,26 @@
 """Studies: the case table of a config, its chunks, and the job that simulates one chunk.
 
 The case table is a pure, deterministic function of the config (DESIGN §6): the cartesian
-product of the grids, each case classified (Grashof) into its family, filtered by the
-families to keep, in a fixed order. Chunks are consecutive slices of a family's cases, so a
-job is named by (family, chunk index) — never by a float.
+product of the grids, each geometry classified (Grashof) into its family, filtered by the
+families to keep, in a fixed order (mechanism type, then the length grids in the order of
+:data:`GRID_KEYS`, then speed, material, section). A case's id is its position among the
+cases of its family, so chunk files of one family concatenate without clashes, and a job is
+named by (family, chunk index) — never by a float.
+
+Building the table is cheap (the Grashof classification of each geometry); the scenes are
+built only for the rows asked for, so the Snakefile can call :func:`chunks` at parse time.
+
+Examples
+--------
+>>> config = {"grids": {"four_bar": {"ground": 0.5, "crank": [0.1, 0.2],
+...                                  "coupler": [0.45], "rocker": [0.35]}},
+...           "speeds": [50.0, 100.0], "materials": ["steel"],
+...           "sections": [{"shape": "rectangle", "height": 0.005, "width": 0.01}],
+...           "chunk_size": 3}
+>>> chunks(config)
+{'crank_rocker': 2}
+>>> [(r["case"], r["crank"], r["speed"]) for r in case_table(config)]
+[(0, 0.1, 50.0), (1, 0.1, 100.0), (2, 0.2, 50.0), (3, 0.2, 100.0)]
 """
 from __future__ import annotations
 
@@ -15,119 +32,288 @@ from pathlib import Path
 
 import numpy as np
 
-from .cases import case_family
 from .errors import SceneError
-from .mechanism import FAMILIES, assembly_error
+from .mechanism import FAMILIES, assembly_error, classify
 
-__all__ = ["grid_values", "case_table", "chunks", "chunk_scenes", "run_chunk", "study_size"]
+__all__ = [
+    "GRID_KEYS",
+    "CASE_KEYS",
+    "grid_values",
+    "case_table",
+    "family_sizes",
+    "chunks",
+    "chunk_rows",
+    "chunk_scenes",
+    "case_config",
+    "check_config",
+    "modal_requested",
+    "run_chunk",
+    "study_size",
+]
 
-#: Length keys of the grids of each mechanism type.
+#: Length keys spanned by the grids of each mechanism type, in case-table order.
 GRID_KEYS = {
     "four_bar": ("crank", "coupler", "rocker"),
     "slider_crank": ("crank", "rod", "offset"),
 }
+#: Config keys that define the cases (and so the chunk files); the rest (study name, families
+#: kept, reduction settings) can change without re-simulating anything.
+CASE_KEYS = ("grids", "speeds", "materials", "sections", "chunk_size", "base_scene")
 
 
-def grid_values(spec, path: str) -> list[float]:
-    """A grid axis from a list or {start, stop, num} (inclusive, evenly spaced)."""
+def grid_values(spec, path: str = "grid") -> list[float]:
+    """The values of one grid axis.
+
+    Parameters
+    ----------
+    spec : number, list of numbers, or mapping ``{start, stop, num}``
+        A single value, explicit values (kept in the order given), or ``num`` evenly spaced
+        values from ``start`` to ``stop`` inclusive.
+    path : str
+        Key path for error messages.
+
+    Examples
+    --------
+    >>> grid_values({"start": 0.1, "stop": 0.3, "num": 3})
+    [0.1, 0.2, 0.3]
+    >>> grid_values([0.3, 0.1]), grid_values(0.5)
+    ([0.3, 0.1], [0.5])
+    """
     if isinstance(spec, Mapping):
-        num = int(spec["num"])
-        return [float(v) for v in np.linspace(spec["start"], spec["stop"], num)]
+        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if missing or set(spec) - {"start", "stop", "num"}:
+            raise SceneError(path, "a range must have exactly the keys start, stop, num")
+        num = spec["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
+            raise SceneError(f"{path}.num", f"must be an integer >= 1, got {num!r}")
+        values = np.linspace(float(spec["start"]), float(spec["stop"]), num)
+        # Round away the last-bit noise of linspace so that equal lengths compare equal
+        # (S + L = P + Q for change points) and print as given.
+        return [float(f"{v:.12g}") for v in values]
     if isinstance(spec, (list, tuple)):
-        return [float(v) for v in spec]
-    return [float(spec)]
+        if not spec:
+            raise SceneError(path, "must not be empty")
+        values = list(spec)
+    else:
+        values = [spec]
+    for i, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise SceneError(f"{path}[{i}]" if isinstance(spec, (list, tuple)) else path,
+                             f"must be a finite number, got {v!r}")
+    return [float(v) for v in values]
 
 
-def _scene_for(config: dict, kind: str, lengths: dict, speed: float, material: str,
+def _geometries(config: dict) -> list[tuple[str, str, dict]]:
+    """(mechanism type, family, lengths) of every assemblable geometry kept, in table order."""
+    keep = set(config.get("families", FAMILIES))
+    out = []
+    for kind, keys in GRID_KEYS.items():
+        grid = config.get("grids", {}).get(kind)
+        if not grid:
+            continue
+        spec = {k: grid.get(k, [0.0] if k == "offset" else None) for k in keys}
+        axes = [grid_values(spec[k], f"grids.{kind}.{k}") for k in keys]
+        for values in itertools.product(*axes):
+            lengths = dict(zip(keys, values))
+            if kind == "four_bar":
+                lengths = {"ground": float(grid["ground"]), **lengths}
+            if assembly_error({"type": kind, **lengths}):
+                continue
+            family = classify(**lengths) if kind == "four_bar" else kind
+            if family in keep:
+                out.append((kind, family, lengths))
+    return out
+
+
+def _inner(config: dict) -> list[tuple[float, int, int]]:
+    """(speed, material index, section index) of each case of one geometry, in table order."""
+    speeds = grid_values(config["speeds"], "speeds")
+    return list(itertools.product(
+        speeds, range(len(config["materials"])), range(len(config["sections"]))))
+
+
+def _material_names(config: dict) -> list[str]:
+    """Resolved names of the study's materials (library aliases mapped to the library name)."""
+    from .materials import resolve_material
+
+    return [resolve_material(m, f"materials[{i}]")["name"]
+            for i, m in enumerate(config["materials"])]
+
+
+def _scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
                section: dict) -> dict:
-    base = copy.deepcopy(config.get("base_scene", {}))
-    mechanism = {"type": kind, **lengths}
+    base = copy.deepcopy(config.get("base_scene") or {})
+    # Keys of a base mechanism block other than type and lengths (e.g. branch) carry over.
+    mechanism = {k: v for k, v in (base.get("mechanism") or {}).items()
+                 if k not in ("type", "ground", *GRID_KEYS[kind], "slider_mass")}
+    mechanism.update({"type": kind, **lengths})
     if kind == "slider_crank":
-        mechanism["slider_mass"] = config["grids"]["slider_crank"].get("slider_mass", 0.0)
+        mechanism["slider_mass"] = float(config["grids"]["slider_crank"].get("slider_mass", 0.0))
     base["mechanism"] = mechanism
     links = base.setdefault("links", {})
     default = links.setdefault("default", {})
-    default["material"] = material
+    default["material"] = copy.deepcopy(material)
     default["section"] = dict(section)
     base.setdefault("drive", {})["speed"] = speed
     return base
 
 
-def case_table(config: dict) -> list[dict]:
-    """Every case of the study, in a deterministic order.
+def _row(config: dict, kind: str, family: str, lengths: dict, case: int,
+         inner: tuple[float, int, int], names: list[str], scene: bool) -> dict:
+    speed, m, s = inner
+    material = config["materials"][m]
+    row = {"case": case, "family": family, "mechanism": kind, **lengths, "speed": speed,
+           "material": names[m], "material_index": m, "section": s}
+    if scene:
+        row["scene"] = _scene_for(config, kind, lengths, speed, material, config["sections"][s])
+    return row
 
-    Each row: ``family``, ``scene`` (an un-normalized scene dict), and the grid parameters
-    (``mechanism``, lengths, ``speed``, ``material``, ``section`` index). Linkages that cannot
-    be assembled are dropped, as are families not in ``config["families"]``.
+
+def case_table(config: dict, family: str | None = None, *, scenes: bool = True) -> list[dict]:
+    """Every case of the study (or of one ``family``), in a deterministic order.
+
+    Each row: ``case`` (id within the family), ``family``, ``mechanism`` (type), the lengths,
+    ``speed``, ``material`` (resolved name), ``material_index``, ``section`` (index into the
+    config's sections) and, if ``scenes``, ``scene`` (an un-normalized scene dict). Linkages
+    that cannot be assembled are dropped, as are families not in ``config["families"]``.
     """
-    keep = set(config.get("families", FAMILIES))
-    speeds = grid_values(config["speeds"], "speeds")
-    materials = list(config["materials"])
-    sections = list(config["sections"])
+    inner, names = _inner(config), _material_names(config)
+    counters: dict[str, int] = {}
     rows = []
-    for kind in ("four_bar", "slider_crank"):
-        grid = config.get("grids", {}).get(kind)
-        if not grid:
+    for kind, fam, lengths in _geometries(config):
+        if family is not None and fam != family:
             continue
-        axes = [grid_values(grid[k], f"grids.{kind}.{k}") for k in GRID_KEYS[kind]]
-        for values in itertools.product(*axes):
-            lengths = dict(zip(GRID_KEYS[kind], values))
-            if kind == "four_bar":
-                lengths = {"ground": float(grid["ground"]), **lengths}
-            if assembly_error({"type": kind, **lengths}):
-                continue
-            family = case_family({"mechanism": {"type": kind, **lengths}})
-            if family not in keep:
-                continue
-            for speed, (m, material), (s, section) in itertools.product(
-                    speeds, enumerate(materials), enumerate(sections)):
-                rows.append({
-                    "family": family, "mechanism": kind, **lengths, "speed": speed,
-                    "material": material, "section": s,
-                    "scene": _scene_for(config, kind, lengths, speed, material, section),
-                })
+        for point in inner:
+            case = counters.get(fam, 0)
+            counters[fam] = case + 1
+            rows.append(_row(config, kind, fam, lengths, case, point, names, scenes))
     return rows
 
 
+def family_sizes(config: dict) -> dict[str, int]:
+    """Number of cases of each family present in the study (families in table order)."""
+    n = len(_inner(config))
+    sizes: dict[str, int] = {}
+    for _, family, _ in _geometries(config):
+        sizes[family] = sizes.get(family, 0) + n
+    return sizes
+
+
 def study_size(config: dict) -> int:
-    """Number of grid points before classification (for the up-front size check)."""
-    n = len(grid_values(config["speeds"], "speeds")) * len(config["materials"]) * len(
-        config["sections"])
+    """Number of grid points before assembly check and classification."""
+    n = len(_inner(config))
     total = 0
     for kind, keys in GRID_KEYS.items():
         grid = config.get("grids", {}).get(kind)
         if grid:
-            total += math.prod(len(grid_values(grid[k], k)) for k in keys)
+            total += math.prod(
+                len(grid_values(grid.get(k, [0.0]), f"grids.{kind}.{k}")) for k in keys)
     return total * n
 
 
 def chunks(config: dict) -> dict[str, int]:
     """Number of chunks of each family present in the study."""
     size = int(config["chunk_size"])
-    counts: dict[str, int] = {}
-    for row in case_table(config):
-        counts[row["family"]] = counts.get(row["family"], 0) + 1
-    return {f: math.ceil(n / size) for f, n in counts.items()}
+    return {f: math.ceil(n / size) for f, n in family_sizes(config).items()}
+
+
+def chunk_rows(config: dict, family: str, index: int, *, scenes: bool = True) -> list[dict]:
+    """Rows of chunk ``index`` of ``family`` (scenes are built for these rows only)."""
+    size = int(config["chunk_size"])
+    inner, names = _inner(config), _material_names(config)
+    geometries = [g for g in _geometries(config) if g[1] == family]
+    first, last = index * size, min((index + 1) * size, len(geometries) * len(inner))
+    if index < 0 or first >= last:
+        raise SceneError("chunk", f"family {family!r} has no chunk {index}")
+    rows = []
+    for case in range(first, last):
+        kind, fam, lengths = geometries[case // len(inner)]
+        rows.append(_row(config, kind, fam, lengths, case, inner[case % len(inner)], names,
+                         scenes))
+    return rows
 
 
 def chunk_scenes(config: dict, family: str, index: int) -> list[dict]:
     """Scenes of chunk ``index`` of ``family``."""
-    size = int(config["chunk_size"])
-    rows = [r for r in case_table(config) if r["family"] == family]
-    part = rows[index * size : (index + 1) * size]
-    if not part:
-        raise SceneError("chunk", f"family {family!r} has no chunk {index}")
-    return [r["scene"] for r in part]
+    return [r["scene"] for r in chunk_rows(config, family, index)]
 
 
-def run_chunk(config: dict, family: str, index: int, output: str | Path) -> Path:
-    """Simulate one chunk and write its dataset atomically."""
-    from .io import write_dataset
+def case_config(config: dict) -> dict:
+    """The part of ``config`` that defines the cases (:data:`CASE_KEYS`).
+
+    Passed to the simulation jobs as their ``params``, so that editing the study name, the
+    families kept or a reduction setting re-runs no simulation.
+    """
+    return {k: copy.deepcopy(config[k]) for k in CASE_KEYS if k in config}
+
+
+def modal_requested(config: dict) -> bool:
+    """Whether the base scene asks for a modal analysis with an elastic formulation (the
+    study then has natural frequencies and Campbell diagrams)."""
+    base = config.get("base_scene") or {}
+    formulation = (base.get("discretization") or {}).get("formulation", "euler_bernoulli")
+    return bool(base.get("modal")) and formulation != "rigid"
+
+
+def check_config(config: dict) -> dict[str, int]:
+    """Checks beyond the JSON schema, cheap enough for parse time; returns :func:`chunks`.
+
+    Grid axes must be well formed, material names distinct (they label a grid dimension), and
+    one scene of each mechanism type must pass :func:`ced.scene.load_scene`, so a bad base
+    scene fails before any job starts, with the scene's key path in the message.
+    """
+    from .scene import load_scene
+
+    names = _material_names(config)
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise SceneError("materials", f"material names must be distinct, repeated: "
+                                      f"{', '.join(duplicates)}")
+    seen = set()
+    for kind, family, lengths in _geometries(config):
+        if kind in seen:
+            continue
+        seen.add(kind)
+        row = _row(config, kind, family, lengths, 0, _inner(config)[0], names, True)
+        try:
+            load_scene(row["scene"])
+        except SceneError as err:
+            raise SceneError(f"base_scene ({kind} case): {err.path}", err.message) from None
+    return chunks(config)
+
+
+def run_chunk(config: dict, family: str, index: int, output: str | Path,
+              study: str | None = None) -> Path:
+    """Simulate one chunk and write its dataset atomically.
+
+    The dataset's ``case`` coordinate is the case id within the family; ``section`` (index
+    into the config's sections) is added as a case coordinate beside the section sizes.
+    """
+    import json
+    import sys
+    import time
+
+    from .io import STATUS_FLAGS, write_dataset
     from .simulation import simulate
 
-    ds = simulate(chunk_scenes(config, family, index))
-    # Case ids unique within the family, so chunk files concatenate without clashes.
-    ds = ds.assign_coords(case=ds.case + index * int(config["chunk_size"]))
-    ds.attrs["study"] = str(config.get("study", "study"))
+    rows = chunk_rows(config, family, index)
+    start = time.perf_counter()
+    ds = simulate([r["scene"] for r in rows])
+    elapsed = time.perf_counter() - start
+    ds = ds.assign_coords(
+        case=("case", np.array([r["case"] for r in rows]), ds.case.attrs),
+        section=("case", np.array([r["section"] for r in rows], dtype="int32"),
+                 {"units": "1", "long_name": "index of the section in the study's sections"}),
+    )
+    ds.case.attrs.update(units="1", long_name="case id within the family")
+    ds.attrs["study"] = str(study if study is not None else config.get("study", "study"))
     ds.attrs["chunk"] = f"{family}/{index}"
-    return write_dataset(ds, output)
+    ds.attrs["study_sections"] = json.dumps(config["sections"], sort_keys=True)
+    path = write_dataset(ds, output)
+    status = ds.status.values.astype(int)
+    counts = {"ok": int((status == 0).sum())}
+    counts.update({name: int((status & bit > 0).sum()) for name, bit in STATUS_FLAGS.items()})
+    print(f"{family}/{index}: {len(rows)} cases (ids {rows[0]['case']}-{rows[-1]['case']}) "
+          f"in {elapsed:.1f} s; status: " + ", ".join(f"{k} {v}" for k, v in counts.items() if v),
+          file=sys.stderr)
+    return path

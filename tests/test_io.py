@@ -113,3 +113,12 @@ def test_effects_auto_is_resolved_and_recorded():
         assert entry["included"] == (effect in chosen)
         assert np.isfinite(entry["estimate"]) and entry["reason"]
     assert ds.attrs["effects"].split() == chosen
+
+
+def test_written_file_is_readable_by_others_per_umask(tmp_path, rigid):
+    old = os.umask(0o022)
+    try:
+        path = write_dataset(rigid, tmp_path / "perm.nc")
+    finally:
+        os.umask(old)
+    assert path.stat().st_mode & 0o777 == 0o644

@@ -45,7 +45,7 @@ def test_minimal_four_bar_gets_documented_defaults():
     assert s["gravity"] == [0.0, -9.81]
     assert s["damping"] == {"model": "modal", "ratio": 0.0, "alpha": 0.0, "beta": 0.0}
     assert s["discretization"] == {"formulation": "euler_bernoulli", "elements_per_link": 8,
-                                   "elements_across": 2}
+                                   "elements_across": 2, "modes_per_link": 0}
     assert s["time"] == {"revolutions": 2.0, "steps_per_revolution": 512,
                          "integrator": "generalized_alpha", "rho_inf": 0.9, "beta": 0.25,
                          "gamma": 0.5, "alpha": -0.05, "start": "undeformed"}

@@ -1,5 +1,5 @@
 rule reduce_family:
-    """Combine a family's chunk files into one CF dataset of per-case results."""
+    """A family's chunk files -> per-case peaks and the same unstacked onto the study grid."""
     input:
         lambda wildcards: expand(
             "results/{study}/chunks/{family}/{chunk}.nc",
@@ -8,24 +8,14 @@ rule reduce_family:
             chunk=range(CHUNKS[wildcards.family]),
         ),
     output:
-        "results/{study}/maps/{family}.nc",
+        cases="results/{study}/maps/{family}.nc",
+        grid="results/{study}/maps/{family}_grid.nc",
     log:
         "results/{study}/logs/reduce/{family}.log",
+    resources:
+        mem_mb=lambda wildcards, attempt: 1000 * attempt,
+        runtime=lambda wildcards, attempt: 10 * attempt,
+    params:
+        stress_safety_factor=config["stress_safety_factor"],
     script:
         "../scripts/reduce_family.py"
-
-
-rule overview_figure:
-    """Family overview: peak input torque (and peak stress where computed) against speed."""
-    input:
-        expand("results/{{study}}/maps/{family}.nc", family=FAMILIES),
-    output:
-        report(
-            "results/{study}/figures/overview.png",
-            caption="../report/overview.rst",
-            category="Overview",
-        ),
-    log:
-        "results/{study}/logs/figures/overview.log",
-    script:
-        "../scripts/overview_figure.py"

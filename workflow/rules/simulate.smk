@@ -6,11 +6,13 @@ rule simulate_chunk:
         "results/{study}/logs/simulate/{family}/{chunk}.log",
     benchmark:
         "results/{study}/benchmarks/simulate/{family}/{chunk}.tsv"
-    params:
-        config=config,
     threads: 1
     resources:
         mem_mb=lambda wildcards, attempt: 2000 * attempt,
         runtime=lambda wildcards, attempt: 30 * attempt,
+    params:
+        # Only the config keys that define the cases: editing the study name, the families
+        # kept or a reduction setting re-runs no simulation.
+        cases=case_config(config),
     script:
         "../scripts/simulate_chunk.py"
