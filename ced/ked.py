@@ -38,8 +38,8 @@ RESONANCE_GAP = 0.05
 RESONANCE_SHARE = 0.5
 #: max |μ| above which the periodic system is parametrically unstable.
 INSTABILITY_MARGIN = 1e-6
-#: Steps per chunk × cases kept in memory at once when assembling terms.
-_CHUNK_BUDGET = 8192
+#: Bytes of system terms kept in memory at once (steps per chunk follow from the batch size).
+_CHUNK_BYTES = 50e6
 
 
 def _element_module(formulation: str):
@@ -252,7 +252,9 @@ class _TermCache:
 
     def __init__(self, model: Model, h: np.ndarray, n_steps: int):
         self.model, self.h, self.n_steps = model, h, n_steps
-        self.chunk = max(4, _CHUNK_BUDGET // max(1, model.batch.size))
+        layout = model.layout
+        per_step = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
+        self.chunk = int(min(n_steps + 1, max(4, _CHUNK_BYTES // max(per_step, 1))))
         self.start, self.terms, self.P = None, None, None
 
     def load(self, k: int):
