@@ -128,7 +128,7 @@ def inverse_dynamics(
         i = nb - 1
         A[:, :, 3 * i + 1, col + 1] = 1.0  # guide normal force (y)
         A[:, :, 3 * i + 2, col + 2] = 1.0  # guide reaction moment
-    x = np.linalg.solve(A, rhs.reshape(ncase, nstep, 3 * nb, 1))[..., 0]
+    x = _solve_regular(A, rhs.reshape(ncase, nstep, 3 * nb), motion.singular)
 
     force = np.zeros((ncase, nstep, len(joints), 2))
     for u, joint in enumerate(joint_unknowns):
@@ -138,6 +138,36 @@ def inverse_dynamics(
         input_torque=x[..., col],
         guide_force=x[..., col + 1] if has_slider else None,
     )
+
+
+#: Hadamard ratio |det A| / Π‖rowᵢ‖ of the Newton–Euler matrix (1 for orthogonal rows, 0 when
+#: singular) below which a step counts as singular; an LU, far cheaper than a condition number.
+SINGULAR_RATIO = 1e-12
+
+
+def _solve_regular(A: np.ndarray, b: np.ndarray, singular: np.ndarray) -> np.ndarray:
+    """Solve A x = b per (case, step); at singular steps interpolate x in time.
+
+    At a change point or dead centre the rigid linkage is statically indeterminate (the
+    Newton–Euler matrix is singular) and the interpolated kinematics there are not exactly
+    consistent, so a direct solve gives no answer or an absurd one (~1e17 N m). Forces are
+    continuous through the configuration on the smooth branch, so they are interpolated from
+    the regular neighbours, as the velocities are (:mod:`ced.kinematics`).
+    """
+    ratio = np.abs(np.linalg.det(A)) / np.prod(np.linalg.norm(A, axis=-1), axis=-1)
+    bad = np.asarray(singular, bool) | ~(ratio > SINGULAR_RATIO)
+    x = np.zeros(b.shape)
+    good = ~bad
+    x[good] = np.linalg.solve(A[good], b[good][..., None])[..., 0]
+    if bad.any():
+        steps = np.arange(b.shape[1])
+        for c in np.flatnonzero(bad.any(axis=1)):
+            ok = good[c]
+            if ok.sum() < 2:
+                continue  # no regular step to learn from: leave zero (flagged upstream)
+            for k in range(b.shape[2]):
+                x[c, ~ok, k] = np.interp(steps[~ok], steps[ok], x[c, ok, k])
+    return x
 
 
 def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.0, 0.0)):
