@@ -104,7 +104,10 @@ def build_model(batch: Batch) -> Model:
             ends[name] = tuple(tuple(int(i) for i in pair) for pair in m.end_dofs)
             if formulation == "timoshenko":
                 rotary = par["rho"] * sec["second_moment"]  # its mass carries rotary inertia
-            if name == topo.input_link:
+            if name == topo.input_link and formulation != "seed_lame":
+                # seed_lame (thesis II.5) has no section rotation: v' is a displacement
+                # gradient, and fixing it is a constraint its second-order equation cannot
+                # take (convergence drops from h¹⁰ to h). The pivot translation holds the link.
                 clamp_dof = int(m.end_rotations[0])
         else:
             m = rigid.link_matrices(length, rho=par["rho"], area=sec["area"],
