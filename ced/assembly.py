@@ -37,7 +37,8 @@ class Layout:
     flexible : link -> bool
     link_sizes : link -> number of local DOFs (z block size)
     end_dofs : link -> ((u, v) local indices at the first end, (u, v) at the second end)
-    clamp_dof : local index of the input link's rotation at its ground pivot (flexible input)
+    clamp_dofs : local indices held by the clamp of a flexible input link at its ground pivot
+        (a beam's end rotation; every DOF of a continuum's pivot face)
     host : joint -> hosting link name, or None for the global frame
     coordinate_kind : (joint, 0|1) -> "free" | "zero" | "own"
     constraints : list of (rigid link, "axial" | "clamp", owned (joint, component) )
@@ -47,7 +48,7 @@ class Layout:
     flexible: dict[str, bool]
     link_sizes: dict[str, int]
     end_dofs: dict[str, tuple[tuple[int, int], tuple[int, int]]]
-    clamp_dof: int | None
+    clamp_dofs: tuple[int, ...]
     host: dict[str, str | None]
     coordinate_kind: dict[tuple[str, int], str]
     constraints: list[tuple[str, str, tuple[str, int]]]
@@ -82,7 +83,7 @@ class Layout:
                 continue
             ends = {i for pair in self.end_dofs[name] for i in pair}
             for i in range(self.link_sizes[name]):
-                if i in ends or (name == self.topology.input_link and i == self.clamp_dof):
+                if i in ends or (name == self.topology.input_link and i in self.clamp_dofs):
                     continue
                 out.append((name, i))
         return out
@@ -124,7 +125,7 @@ def build_layout(
     flexible: dict[str, bool],
     link_sizes: dict[str, int],
     end_dofs: dict[str, tuple[tuple[int, int], tuple[int, int]]],
-    clamp_dof: int | None,
+    clamp_dofs: tuple[int, ...] = (),
     slider_joint: str | None = None,
 ) -> Layout:
     """Choose hosts and the coordinates that rigid-link constraints eliminate.
@@ -173,7 +174,8 @@ def build_layout(
         constraints = []
     # Order coordinates by joint then component for a stable y layout.
     kind = {key: kind[key] for key in sorted(kind, key=lambda k: (list(joints).index(k[0]), k[1]))}
-    return Layout(topology, dict(flexible), dict(link_sizes), dict(end_dofs), clamp_dof, host,
+    return Layout(topology, dict(flexible), dict(link_sizes), dict(end_dofs), tuple(clamp_dofs),
+                  host,
                   kind, constraints)
 
 

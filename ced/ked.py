@@ -88,7 +88,7 @@ def build_model(batch: Batch) -> Model:
     element = _element_module(formulation)
     flexible = {name: scene["links"][name]["flexible"] for name in topo.links}
     links, recovery, sizes, ends = {}, {}, {}, {}
-    clamp_dof = None
+    clamp_dofs: tuple[int, ...] = ()
     for i, name in enumerate(topo.links):
         par = {key: _link_parameter(batch, name, "material", key) for key in ("E", "G", "rho")}
         sec = {key: _link_parameter(batch, name, "section", key)
@@ -108,7 +108,7 @@ def build_model(batch: Batch) -> Model:
                 # seed_lame (thesis II.5) has no section rotation: v' is a displacement
                 # gradient, and fixing it is a constraint its second-order equation cannot
                 # take (convergence drops from h¹⁰ to h). The pivot translation holds the link.
-                clamp_dof = int(m.end_rotations[0])
+                clamp_dofs = tuple(int(i) for i in np.atleast_1d(m.end_rotations[0]))
         else:
             m = rigid.link_matrices(length, rho=par["rho"], area=sec["area"],
                                     second_moment=sec["second_moment"])
@@ -121,7 +121,7 @@ def build_model(batch: Batch) -> Model:
             rotary_inertia_per_length=np.broadcast_to(rotary, length.shape).astype(float))
         sizes[name] = m.mass.shape[-1]
     slider = "C" if batch.mechanism_type == "slider_crank" else None
-    layout = build_layout(topo, flexible, sizes, ends, clamp_dof, slider_joint=slider)
+    layout = build_layout(topo, flexible, sizes, ends, clamp_dofs, slider_joint=slider)
     links = {name: permute(data, split_order(layout, name)) for name, data in links.items()}
     modes = scene["discretization"].get("modes_per_link", 0)
     if modes and any(flexible.values()):
@@ -141,7 +141,7 @@ def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str
     of the reduced blocks: interior = modal coordinates, then the boundary rows unchanged."""
     topo = layout.topology
     sizes, ends = dict(layout.link_sizes), dict(layout.end_dofs)
-    clamp = layout.clamp_dof
+    clamp = layout.clamp_dofs
     links, recovery = dict(links), dict(recovery)
     for name in topo.links:
         if not layout.flexible[name]:
@@ -154,8 +154,8 @@ def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str
         position = {local: n_interior + j for j, local in enumerate(varying)}
         sizes[name] = n_interior + len(varying)
         ends[name] = tuple((position[u], position[v]) for u, v in layout.end_dofs[name])
-        if name == topo.input_link and clamp is not None:
-            clamp = position[clamp]
+        if name == topo.input_link and clamp:
+            clamp = tuple(position[i] for i in clamp)
     return (build_layout(topo, layout.flexible, sizes, ends, clamp, slider_joint=slider),
             links, recovery)
 

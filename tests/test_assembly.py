@@ -15,7 +15,7 @@ def _layout(kind, flexible):
     sizes = {n: BEAM if flexible[n] else 3 for n in topo.links}
     ends = {n: BEAM_ENDS if flexible[n] else ((0, 1), (0, 1)) for n in topo.links}
     slider = "C" if kind == "slider_crank" else None
-    return build_layout(topo, flexible, sizes, ends, 2, slider_joint=slider)
+    return build_layout(topo, flexible, sizes, ends, (2,), slider_joint=slider)
 
 
 def _motion(kind, times):
