@@ -72,6 +72,10 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "peak_stress": (("case", "link"), "Pa", "peak absolute stress", _F64),
     "dynamic_amplification": (
         ("case", "link"), "1", "peak dynamic over peak quasi-static deflection", _F64),
+    "longitudinal_wave_speed": (
+        ("case", "link"), "m s-1", "longitudinal wave speed sqrt((lambda + 2 mu)/rho)", _F64),
+    "transverse_wave_speed": (
+        ("case", "link"), "m s-1", "transverse wave speed sqrt(mu/rho)", _F64),
     "floquet_multiplier_max": (
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
     "error_estimate": (("case",), "1", "estimated relative error of peak stress", _F64),

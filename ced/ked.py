@@ -352,6 +352,11 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= io.STATUS_FLAGS["large_deflection"]
     if scene.get("modal") and model.layout.ny:
         result["natural_frequency"] = _modal(model, scene["modal"])
+    if scene["discretization"]["formulation"] == "seed_lame":
+        # The thesis's wave analysis (III.3.1.a), reported per link material.
+        for key, name in (("c1", "longitudinal_wave_speed"), ("c2", "transverse_wave_speed")):
+            result[name] = np.stack([_link_parameter(batch, link, "material", key)
+                                     for link in batch.topology.links], axis=1)
     result["status"] = status
     return result
 

@@ -377,7 +377,13 @@ def _normalize(raw: Any) -> dict:
     disc = raw.get("discretization")
     scene["discretization"] = AUTO if isinstance(disc, str) and disc == AUTO else _block(disc, "discretization",
                                                                BLOCKS["discretization"])
-    scene["time"] = _time(raw.get("time"))
+    time = raw.get("time")
+    if (isinstance(scene["discretization"], dict)
+            and scene["discretization"]["formulation"] == "seed_lame"
+            and not (isinstance(time, Mapping) and "integrator" in time)):
+        # The thesis recommends Houbolt's scheme for its model (III.2.4): its default there.
+        time = {**(time or {}), "integrator": "houbolt"} if not isinstance(time, str) else time
+    scene["time"] = _time(time)
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])

@@ -336,3 +336,20 @@ def test_seed_lame_runs_through_the_solver_and_is_far_too_stiff_for_slender_link
     assert np.all(np.isfinite(seed["stress"]))
     assert seed["natural_frequency"][0, :, 0].min() > 10 * eb["natural_frequency"][0, :, 0].max()
     assert np.abs(seed["deflection"]).max() < 0.1 * np.abs(eb["deflection"]).max()
+
+
+def test_seed_lame_defaults_to_houbolt_and_reports_wave_speeds():
+    scene = load_scene(simeon(discretization={"formulation": "seed_lame"}))
+    assert scene["time"]["integrator"] == "houbolt"  # thesis III.2.4
+    explicit = load_scene(simeon(discretization={"formulation": "seed_lame"},
+                                 time={"integrator": "newmark"}))
+    assert explicit["time"]["integrator"] == "newmark"
+    ds = simulate(simeon(discretization={"formulation": "seed_lame", "elements_per_link": 2}))
+    # c1 = √((λ+2μ)/ρ), c2 = √(μ/ρ) for E = 2e11, ν = 0.3, ρ = 7870 (thesis III.3.1.a).
+    E, nu, rho = 2e11, 0.3, 7870.0
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    assert float(ds.longitudinal_wave_speed.sel(link="rod", case=0)) == pytest.approx(
+        math.sqrt((lam + 2 * mu) / rho), rel=1e-12)
+    assert float(ds.transverse_wave_speed.sel(link="rod", case=0)) == pytest.approx(
+        math.sqrt(mu / rho), rel=1e-12)
+    assert "longitudinal_wave_speed" not in simulate(simeon())
