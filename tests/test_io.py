@@ -20,20 +20,22 @@ ELASTIC = {
 }
 
 
+def _written(tmp_path_factory, scene):
+    """The dataset of ``scene`` after a write and a read back."""
+    path = tmp_path_factory.mktemp("io") / "out.nc"
+    write_dataset(simulate(scene), path)
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()
+
+
 @pytest.fixture(scope="module")
 def rigid(tmp_path_factory):
-    path = tmp_path_factory.mktemp("io") / "rigid.nc"
-    write_dataset(simulate(SCENE), path)
-    with xr.open_dataset(path, engine="netcdf4") as ds:
-        yield ds.load()
+    return _written(tmp_path_factory, SCENE)
 
 
 @pytest.fixture(scope="module")
 def elastic(tmp_path_factory):
-    path = tmp_path_factory.mktemp("io") / "elastic.nc"
-    write_dataset(simulate(ELASTIC), path)
-    with xr.open_dataset(path, engine="netcdf4") as ds:
-        yield ds.load()
+    return _written(tmp_path_factory, ELASTIC)
 
 
 def test_global_attributes(rigid):
