@@ -8,6 +8,7 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
 __all__ = ["main"]
 
@@ -48,6 +49,21 @@ def _classify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ladder(args: argparse.Namespace) -> int:
+    from .ladder import run_ladder, write_ladder
+    from .scene import load_scene
+
+    load_scene(args.scene)  # validate first: exit 2 on bad input, nothing written
+    import yaml
+
+    with open(args.scene) as handle:
+        scene = yaml.safe_load(handle)
+    results = run_ladder(scene, link=args.link)
+    write_ladder(results, args.output)
+    print((Path(args.output) / "ladder.md").read_text())
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="ced", description="Kineto-elasto-dynamics of flexible planar linkages.")
@@ -61,6 +77,11 @@ def _parser() -> argparse.ArgumentParser:
         cls.add_argument(f"--{name}", type=float, required=True, help=f"{name} length, m")
     cls.add_argument("--json", action="store_true", help="print JSON")
     cls.set_defaults(func=_classify)
+    lad = sub.add_parser("ladder", help="run a scene through every model (fidelity ladder)")
+    lad.add_argument("scene", help="scene YAML file")
+    lad.add_argument("-o", "--output", required=True, help="output directory")
+    lad.add_argument("--link", default="coupler", help="link whose results are compared")
+    lad.set_defaults(func=_ladder)
     return parser
 
 

@@ -26,7 +26,8 @@ import numpy as np
 
 from .assembly import Layout
 
-__all__ = ["LinkData", "SystemTerms", "system_terms", "axial_force_coefficients"]
+__all__ = ["LinkData", "SystemTerms", "system_terms", "axial_force_coefficients", "split_order",
+           "permute"]
 
 
 @dataclass(frozen=True)
