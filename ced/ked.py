@@ -96,14 +96,19 @@ def build_model(batch: Batch) -> Model:
         length = batch.link_lengths[:, i]
         rotary = 0.0
         if flexible[name]:
+            extra = ({"elements_across": scene["discretization"]["elements_across"]}
+                     if formulation == "plane_stress" else {})
             m = element.link_matrices(
                 length, n_el, E=par["E"], G_shear=par["G"], rho=par["rho"], area=sec["area"],
                 second_moment=sec["second_moment"], height=sec["height"],
-                shear_coefficient=sec["shear_coefficient"])
+                shear_coefficient=sec["shear_coefficient"], **extra)
             recovery[name] = element.recovery_matrices(m, stations)
             ends[name] = tuple(tuple(int(i) for i in pair) for pair in m.end_dofs)
-            if formulation == "timoshenko":
-                rotary = par["rho"] * sec["second_moment"]  # its mass carries rotary inertia
+            if formulation in ("timoshenko", "plane_stress"):
+                # The mass carries the section's rotary inertia: the rigid angular
+                # acceleration loads it with the couple −ρIα (plane_stress: the exact αy
+                # body force through its moment_load).
+                rotary = par["rho"] * sec["second_moment"]
             if name == topo.input_link and formulation != "seed_lame":
                 # seed_lame (thesis II.5) has no section rotation: v' is a displacement
                 # gradient, and fixing it is a constraint its second-order equation cannot

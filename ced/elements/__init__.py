@@ -14,23 +14,24 @@ All parameters broadcast over leading batch (case) dimensions. Per link the equa
     M q̈ + 2ω G q̇ + (K + α G − ω² M_w + Σ_k P_k Kg_k) q = L0 b0 + L1 b1 (+ m0 moment_load)
 
 ``seed_lame`` is the thesis's II.5 thin-link model (quintic Hermite, III.2); ``plane_stress``
-is not implemented yet.
+is the 2-D continuum of II.3 (quadratic quadrilaterals, pins tied to the end faces).
 """
 from __future__ import annotations
 
 from types import ModuleType
 
-from . import euler_bernoulli, rigid, seed_lame, timoshenko
+from . import euler_bernoulli, plane_stress, rigid, seed_lame, timoshenko
 from ._common import LinkMatrices
 
 __all__ = ["LinkMatrices", "FORMULATIONS", "formulation", "link_matrices", "recovery_matrices",
-           "euler_bernoulli", "timoshenko", "rigid"]
+           "euler_bernoulli", "timoshenko", "rigid", "seed_lame", "plane_stress"]
 
 FORMULATIONS: dict[str, ModuleType] = {
     "euler_bernoulli": euler_bernoulli,
     "timoshenko": timoshenko,
     "rigid": rigid,
     "seed_lame": seed_lame,
+    "plane_stress": plane_stress,
 }
 
 
