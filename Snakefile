@@ -35,6 +35,7 @@ wildcard_constraints:
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/reduce.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/ladder.smk"
 
 
 localrules:
@@ -49,6 +50,7 @@ rule all:
         expand(
             "results/{study}/figures/overview.{ext}", study=STUDY, ext=("png", "svg")
         ),
+        expand("results/{study}/ladder/ladder.md", study=STUDY),
         expand(
             "results/{study}/figures/campbell/{family}.{ext}",
             study=STUDY,

@@ -50,16 +50,9 @@ def _classify(args: argparse.Namespace) -> int:
 
 
 def _ladder(args: argparse.Namespace) -> int:
-    from .ladder import run_ladder, write_ladder
-    from .scene import load_scene
+    from .ladder import run_scene_ladder
 
-    load_scene(args.scene)  # validate first: exit 2 on bad input, nothing written
-    import yaml
-
-    with open(args.scene) as handle:
-        scene = yaml.safe_load(handle)
-    results = run_ladder(scene, link=args.link)
-    write_ladder(results, args.output)
+    run_scene_ladder(args.scene, args.output, link=args.link)
     print((Path(args.output) / "ladder.md").read_text())
     return 0
 

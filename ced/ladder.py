@@ -19,7 +19,7 @@ from .cases import make_batch
 from .scene import load_scene
 from .simulation import solve_batch
 
-__all__ = ["RUNGS", "run_rung", "run_ladder", "write_ladder"]
+__all__ = ["RUNGS", "run_rung", "run_ladder", "write_ladder", "run_scene_ladder"]
 
 #: name -> (formulation, effects to remove from the scene, element counts to try)
 RUNGS = {
@@ -132,3 +132,13 @@ def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
     axes[2].set_yticklabels([])
     fig.suptitle("Fidelity ladder: what each model predicts and costs (converged meshes)")
     save(fig, directory / "ladder.png")
+
+
+def run_scene_ladder(path: str | Path, directory: str | Path, link: str = "coupler") -> None:
+    """Validate the scene file, run every rung on it and write the results to ``directory``."""
+    import yaml
+
+    load_scene(path)  # a bad scene fails here, naming the key, before anything is written
+    with open(path) as handle:
+        scene = yaml.safe_load(handle)
+    write_ladder(run_ladder(scene, link=link), directory)

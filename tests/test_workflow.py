@@ -52,6 +52,7 @@ def test_dry_run(path, tmp_path):
     assert counts["simulate_chunk"] == sum(n_chunks.values())
     assert counts["reduce_family"] == len(n_chunks)
     assert counts["overview_figure"] == 1
+    assert counts["fidelity_ladder"] == 1
     expected = len(n_chunks) if config["base_scene"].get("modal") else 0
     assert counts.get("campbell_figure", 0) == expected
     assert f"results/{config['study']}/maps/" in output
@@ -82,7 +83,7 @@ def test_lint():
     assert not others, text
     rules = re.findall(r"^Lints for rule (\w+)", text, re.M)
     assert set(rules) <= {"simulate_chunk", "reduce_family", "overview_figure",
-                          "campbell_figure"}
+                          "campbell_figure", "fidelity_ladder"}
 
 
 @pytest.fixture(scope="module")
