@@ -364,3 +364,23 @@ def test_dispatch_and_parameter_errors():
         sm.link_matrices(0.4, 2, E=E, G_shear=E / 3.5, rho=RHO, area=5e-5)  # ν = 0.75
     with pytest.raises(ValueError, match="n_elements"):
         build(0.4, 0)
+
+
+def test_sparse_assembly_by_expansion_equals_dense_and_is_banded():
+    # Thesis III.2.1–2: element matrices expanded into a sparse global matrix. A one-element
+    # link of length h *is* the element matrix, so expanding it n times must give the
+    # n-element link; the band (half-width 11) keeps storage linear in n.
+    from ced.elements.seed_lame import assemble_sparse, link_matrices
+
+    L, n = 0.45, 12
+    params = dict(E=2.1e11, rho=7850.0, area=5e-5, nu=0.3)
+    element = link_matrices(L / n, 1, **params)
+    whole = link_matrices(L, n, **params)
+    for key in ("stiffness", "mass", "gyroscopic"):
+        sparse = assemble_sparse(getattr(element, key), n)
+        assert np.allclose(sparse.toarray(), getattr(whole, key), rtol=1e-12,
+                           atol=1e-12 * np.abs(getattr(whole, key)).max())
+    K = assemble_sparse(element.stiffness, n)
+    rows, cols = K.nonzero()
+    assert np.abs(rows - cols).max() == 11
+    assert K.nnz <= 144 * n  # at most one 12 × 12 block per element

@@ -177,6 +177,26 @@ def _assemble(ae: np.ndarray, n_elements: int, *, matrix: bool, shared: bool) ->
     return out
 
 
+def assemble_sparse(element_matrices: np.ndarray, n_elements: int):
+    """Assembly by expansion into a sparse matrix (III.2.1–III.2.2, the thesis's storage).
+
+    ``element_matrices`` (e, 12, 12) or (12, 12) for equal elements; returns a
+    ``scipy.sparse.csr_array`` (n, n). Element e's DOFs are 6e … 6e + 11, so the matrix is
+    banded (half-bandwidth 11) and its storage grows linearly with the number of elements.
+    The batched KED solver uses dense stacks of small links instead (:func:`link_matrices`);
+    this is the single-link path for long, finely meshed links.
+    """
+    from scipy import sparse
+
+    ae = np.broadcast_to(element_matrices, (n_elements, 12, 12))
+    local = np.arange(12)
+    rows = (DOFS_PER_NODE * np.arange(n_elements))[:, None, None] + local[None, :, None]
+    cols = (DOFS_PER_NODE * np.arange(n_elements))[:, None, None] + local[None, None, :]
+    rows, cols = np.broadcast_to(rows, ae.shape), np.broadcast_to(cols, ae.shape)
+    n = DOFS_PER_NODE * (n_elements + 1)
+    return sparse.coo_array((ae.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
+
+
 def link_matrices(length, n_elements: int, *, E, rho, area, second_moment=None, G_shear=None,
                   height=None, shear_coefficient=None, rotary_inertia: bool = False,
                   nu=None) -> LinkMatrices:
