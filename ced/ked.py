@@ -103,7 +103,7 @@ def build_model(batch: Batch) -> Model:
                 second_moment=sec["second_moment"], height=sec["height"],
                 shear_coefficient=sec["shear_coefficient"], **extra)
             recovery[name] = element.recovery_matrices(m, stations)
-            ends[name] = tuple(tuple(int(i) for i in pair) for pair in m.end_dofs)
+            ends[name] = tuple(tuple(int(d) for d in pair) for pair in m.end_dofs)
             if formulation in ("timoshenko", "plane_stress"):
                 # The mass carries the section's rotary inertia: the rigid angular
                 # acceleration loads it with the couple −ρIα (plane_stress: the exact αy
@@ -113,7 +113,7 @@ def build_model(batch: Batch) -> Model:
                 # seed_lame (thesis II.5) has no section rotation: v' is a displacement
                 # gradient, and fixing it is a constraint its second-order equation cannot
                 # take (convergence drops from h¹⁰ to h). The pivot translation holds the link.
-                clamp_dofs = tuple(int(i) for i in np.atleast_1d(m.end_rotations[0]))
+                clamp_dofs = tuple(int(d) for d in np.atleast_1d(m.end_rotations[0]))
         else:
             m = rigid.link_matrices(length, rho=par["rho"], area=sec["area"],
                                     second_moment=sec["second_moment"])
