@@ -52,6 +52,14 @@ rule all:
         ),
         expand("results/{study}/ladder/ladder.md", study=STUDY),
         expand(
+            "results/{study}/figures/{kind}/{family}.{ext}",
+            study=STUDY,
+            kind=("resonance", "worst_case"),
+            family=FAMILIES,
+            ext=("png", "svg"),
+        ),
+        expand("results/{study}/tables/safe_speed.{ext}", study=STUDY, ext=("csv", "md")),
+        expand(
             "results/{study}/figures/campbell/{family}.{ext}",
             study=STUDY,
             family=FAMILIES if CAMPBELL else [],

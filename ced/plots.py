@@ -10,8 +10,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from .io import STATUS_FLAGS  # noqa: E402
+
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
-           "HARMONICS"]
+           "resonance_map", "map_slice", "worst_case_figure", "magnification", "HARMONICS",
+           "MAP_HARMONICS"]
+
+#: Harmonics k of the curves k·Ω/2π = f_1 on resonance maps.
+MAP_HARMONICS = tuple(range(1, 6))
 
 #: Crank harmonics k·Ω/2π drawn on Campbell diagrams.
 HARMONICS = tuple(range(1, 11))
@@ -183,4 +189,239 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     shown = ", ".join(f"{k} {v:g}" for k, v in geometry.items())
     fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
+    save(fig, png, svg)
+
+
+# ------------------------------------------------------------------------------ resonance maps
+_MAP_LENGTHS = ("crank", "coupler", "rocker", "rod", "offset")
+
+
+def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset, str, dict]:
+    """The (speed × length) slice of a family grid drawn on its resonance map.
+
+    The y axis is the length dimension with the most values that hold cases (ties: the larger
+    range); the material is ``material`` (default the first of the grid), the section the
+    first; every other length is fixed at the value whose slice holds the most cases (ties:
+    the median of those values). Returns the slice, the y name and the fixed values.
+    """
+    material = str(grid.material.values[0]) if material is None else material
+    has = np.isfinite(grid["case"]).sel(material=material)
+    if "section" in has.dims:
+        has = has.isel(section=0)
+    lengths = [d for d in _MAP_LENGTHS if d in grid.dims]
+    def spread(d):
+        used = has.any([x for x in has.dims if x != d])
+        values = grid[d].values[used.values]
+        return (int(used.sum()), float(np.ptp(values)) if values.size else 0.0)
+    y = max(lengths, key=spread)
+    fixed: dict = {"material": material}
+    if "section" in grid.dims:
+        fixed["section"] = grid.section.values[0].item()
+    rest = has.sel(speed=has.speed)  # all speeds
+    for d in lengths:
+        if d == y:
+            continue
+        count = rest.sum([x for x in rest.dims if x != d])
+        best = grid[d].values[(count == count.max()).values]
+        value = best[len(best) // 2].item()
+        fixed[d] = value
+        rest = rest.sel({d: value})
+    return grid.sel(fixed), y, fixed
+
+
+def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = None,
+                  material: str | None = None) -> None:
+    """Resonance map of one family from its grid file: speed × one length, colour = peak
+    stress (max over links, log scale; peak input torque where no stress was computed).
+
+    Overlaid: the speeds Ω = 2π f_1 / k at which the crank harmonic k·Ω/2π meets the first
+    natural frequency f_1, k = 1…5 (solid: lowest f_1 over the cycle, dotted: highest,
+    each the median over the speeds of the slice); crosses: cases flagged resonant or
+    parametrically unstable; hatched: no case. Slice chosen by :func:`map_slice`.
+    """
+    from matplotlib.colors import LogNorm
+
+    with xr.open_dataset(path, engine="netcdf4") as grid:
+        grid = grid.load()
+    family = str(grid.family.values) if "family" in grid.coords else Path(path).stem
+    sl, y, fixed = map_slice(grid, material)
+    if "peak_stress" in sl:
+        value, label = sl.peak_stress.max("link") / 1e6, "peak stress, max over links [MPa]"
+    else:
+        value, label = sl.peak_input_torque, "peak input torque [N m]"
+    value = value.transpose(y, "speed")
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
+    v = value.values
+    positive = v[np.isfinite(v) & (v > 0)]
+    norm = LogNorm(positive.min(), positive.max()) if positive.size else None
+    speeds, ys = sl.speed.values, sl[y].values
+    ax.set_facecolor("0.92")
+    mesh = ax.pcolormesh(_edges(speeds), _edges(ys), np.ma.masked_invalid(v), norm=norm,
+                         cmap="viridis", shading="flat")
+    fig.colorbar(mesh, ax=ax, label=label)
+    if "status" in sl:
+        bits = np.nan_to_num(sl.status.transpose(y, "speed").values, nan=0).astype(int)
+        bad = ((bits & (4 | 8)) > 0) & (bits != 255)
+        if bad.any():
+            yy, xx = np.nonzero(bad)
+            ax.plot(speeds[xx], ys[yy], "x", color="r", ms=6, label="resonant / unstable")
+    if "natural_frequency_min" in sl:
+        f_lo = sl.natural_frequency_min.isel(mode=0).transpose(y, "speed").median("speed")
+        f_hi = sl.natural_frequency_max.isel(mode=0).transpose(y, "speed").median("speed")
+        for k in MAP_HARMONICS:
+            for f, ls in ((f_lo, "-"), (f_hi, ":")):
+                omega = 2.0 * np.pi * f.values / k
+                ok = np.isfinite(omega) & (omega > 0)
+                ax.plot(omega[ok], ys[ok], ls, color="w", lw=1.2)
+            ok = np.isfinite(f_lo.values) & (f_lo.values > 0)
+            if ok.any():
+                i = np.flatnonzero(ok)[-1]
+                x = 2.0 * np.pi * f_lo.values[i] / k
+                if _edges(speeds)[0] < x < _edges(speeds)[-1]:
+                    ax.text(x, ys[i], f"k={k}", color="w", fontsize=7, ha="left", va="bottom")
+    ax.set_xlim(_edges(speeds)[0], _edges(speeds)[-1])
+    ax.set_ylim(_edges(ys)[0], _edges(ys)[-1])
+    ax.set_xlabel("input speed Ω [rad/s]")
+    ax.set_ylabel(f"{y} length [m]")
+    shown = ", ".join(f"{k} {v:g} m" if k in _LENGTHS else f"{k} {v}" for k, v in fixed.items())
+    ax.set_title(f"{family}: {shown}\nwhite: k·Ω/2π = f₁, k = {MAP_HARMONICS[0]}…"
+                 f"{MAP_HARMONICS[-1]} (solid min, dotted max of f₁ over the cycle)",
+                 fontsize=8)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper right")
+    save(fig, png, svg)
+
+
+def _edges(values: np.ndarray) -> np.ndarray:
+    """Cell edges around sorted centres (half a step beyond the ends)."""
+    values = np.asarray(values, float)
+    if values.size == 1:
+        return np.array([values[0] * 0.9, values[0] * 1.1]) if values[0] else np.array([-1, 1.])
+    mid = (values[1:] + values[:-1]) / 2.0
+    return np.concatenate([[2 * values[0] - mid[0]], mid, [2 * values[-1] - mid[-1]]])
+
+
+# ------------------------------------------------------------------------------ worst case
+def magnification(deflection: float, size: float, fraction: float = 0.1) -> float:
+    """A round magnification (1, 2, 5 × 10^n, below 1 for a diverged response) that draws
+    ``deflection`` at about ``fraction`` × ``size``.
+
+    >>> magnification(1e-4, 0.3)
+    200.0
+    """
+    if not np.isfinite(deflection) or deflection <= 0:
+        return 1.0
+    raw = fraction * size / deflection
+    exponent = np.floor(np.log10(raw))
+    mantissa = max((m for m in (1, 2, 5, 10) if m <= raw / 10**exponent), default=1)
+    return float(mantissa * 10**exponent)
+
+
+#: A resonant or parametrically unstable periodic state (finite but unbounded in reality) or a
+#: failed case is no design answer; the worst case is chosen among the others.
+_NOT_A_DESIGN_CASE = (STATUS_FLAGS["failed"] | STATUS_FLAGS["resonant"]
+                      | STATUS_FLAGS["parametrically_unstable"])
+
+
+def _worst_case(summary: xr.Dataset) -> int | None:
+    """Case id with the largest peak stress (max over links) among cases not flagged failed,
+    resonant or parametrically unstable (those are reported by their flags and maps)."""
+    stress = summary.peak_stress.max("link").values
+    bits = (np.nan_to_num(summary.status.values).astype(int) if "status" in summary
+            else np.zeros(stress.shape, int))
+    ok = np.isfinite(stress) & ((bits & _NOT_A_DESIGN_CASE) == 0)
+    if not ok.any():
+        return None
+    return int(summary.case.values[np.flatnonzero(ok)[np.argmax(stress[ok])]])
+
+
+def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str | Path,
+                      svg: str | Path | None = None) -> None:
+    """Time history of a family's worst case: the case with the largest peak stress (max over
+    links) not flagged failed, resonant or parametrically unstable.
+
+    Left: stress and transverse deflection at mid-span of the coupler (four-bar) or rod
+    (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
+    the worst instant (the step of the largest |stress| anywhere), rigid (grey) and deformed
+    with the elastic deflection magnified by the factor in the title.
+    """
+    from .mechanism import topology
+
+    with xr.open_dataset(summary_path, engine="netcdf4") as summary:
+        summary = summary.load()
+    family = str(summary.family.values[0]) if "family" in summary.coords else "family"
+    case = _worst_case(summary) if "peak_stress" in summary else None
+    if case is None:
+        fig, ax = plt.subplots(figsize=(5, 3))
+        ax.text(0.5, 0.5, f"{family}: no elastic result to show", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_axis_off()
+        save(fig, png, svg)
+        return
+    ds = None
+    for path in chunk_paths:
+        with xr.open_dataset(path, engine="netcdf4") as chunk:
+            if case in chunk.case.values:
+                ds = chunk.sel(case=case).load()
+                break
+    if ds is None:
+        raise ValueError(f"worst_case_figure: case {case} is in none of the chunk files")
+    links = [str(n) for n in ds.link.values]
+    body = "coupler" if "coupler" in links else "rod" if "rod" in links else links[-1]
+    mid = float(ds.station.sel(station=0.5, method="nearest"))
+    angle = np.unwrap(ds.crank_angle.values)
+    angle = np.degrees(angle - angle[0])
+    stress = ds.stress.sel(link=body, station=mid) / 1e6
+    defl = ds.deflection.sel(link=body, station=mid) * 1e3
+    worst = int(abs(ds.stress).max(["link", "station"]).argmax("step"))
+    fig = plt.figure(figsize=(10, 4.6), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1))
+    ax1, ax2 = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
+    ax1.sharex(ax2)
+    ax1.plot(angle, stress, color="C3")
+    ax1.set_ylabel(f"{body} mid-span\nstress [MPa]")
+    ax2.plot(angle, defl, color="C0")
+    ax2.set_ylabel(f"{body} mid-span\ndeflection [mm]")
+    ax2.set_xlabel("crank angle from start of the cycle [deg]")
+    for ax in (ax1, ax2):
+        ax.axvline(angle[worst], color="0.4", lw=0.8, ls="--")
+        ax.grid(True, lw=0.3)
+    ax1.label_outer()
+    # linkage at the worst instant
+    ax3 = fig.add_subplot(grid[:, 1])
+    mech = "slider_crank" if "rod" in links else "four_bar"
+    topo = topology(mech)
+    pos = ds.joint_position.isel(step=worst)
+    size = float(np.ptp(ds.joint_position.values[..., 0])) + 1e-9
+    size = max(size, float(np.ptp(ds.joint_position.values[..., 1])))
+    w = ds.deflection.isel(step=worst)
+    factor = magnification(float(abs(ds.deflection).max()), size)
+    s = ds.station.values
+    for name in links:
+        a, b = (pos.sel(joint=j).values for j in topo.links[name])
+        ax3.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round",
+                 label="rigid" if name == links[0] else None)
+        chord = b - a
+        normal = np.array([-chord[1], chord[0]]) / (np.hypot(*chord) or 1.0)
+        line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
+        ax3.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
+                 label=f"deformed (×{factor:g})" if name == links[0] else None)
+    xy = pos.values
+    ax3.plot(xy[:, 0], xy[:, 1], "ko", ms=4)
+    for j, (px, py) in zip(pos.joint.values, xy):
+        ax3.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax3.set_aspect("equal")
+    ax3.legend(fontsize=7, loc="best")
+    ax3.set_title(f"at the worst instant ({angle[worst]:.0f}°), deflection ×{factor:g}",
+                  fontsize=9)
+    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
+                         if k in ds.coords and ds[k].ndim == 0)
+    from .io import status_names
+
+    status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
+    fig.suptitle(f"{family}, worst case {case}: {geometry} m, {ds.material.item()}, "
+                 f"Ω = {float(ds.speed):g} rad/s, peak stress "
+                 f"{float(ds.peak_stress.max()) / 1e6:.4g} MPa\nstatus: "
+                 f"{', '.join(status_names(status))}; deflection magnified ×{factor:g}",
+                 fontsize=9)
     save(fig, png, svg)

@@ -32,7 +32,15 @@ import xarray as xr
 
 from .io import STATUS_FLAGS, write_dataset
 
-__all__ = ["case_summary", "family_grid", "reduce_family", "GRID_ORDER"]
+__all__ = ["case_summary", "family_grid", "reduce_family", "harmonic_ratio", "stable_flag",
+           "safe_speed", "safe_speed_table", "GRID_ORDER", "HARMONIC_ORDER"]
+
+#: Crank harmonics k = 1..K searched by :func:`harmonic_ratio`.
+HARMONIC_ORDER = 20
+
+#: Status bits that disqualify a case from the safe speed range.
+_UNSAFE_BITS = (STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"]
+                | STATUS_FLAGS["failed"] | STATUS_FLAGS["not_assemblable"])
 
 #: Per-case variables carried over unchanged when present.
 _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",
@@ -42,7 +50,7 @@ _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",
 GRID_ORDER = ("crank", "coupler", "rocker", "rod", "offset", "speed", "material", "section")
 
 #: Fill of integer variables at grid points without a case (CF _FillValue).
-_INT_FILL = {"uint8": 255, "int32": -1, "int64": -1}
+_INT_FILL = {"uint8": 255, "int8": -1, "int32": -1, "int64": -1}
 
 
 def _yield_strength(ds: xr.Dataset) -> xr.DataArray | None:
@@ -83,6 +91,10 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
             low.attrs.update(units="Hz", long_name="lowest natural frequency over the cycle")
             high.attrs.update(units="Hz", long_name="highest natural frequency over the cycle")
             out["natural_frequency_min"], out["natural_frequency_max"] = low, high
+            if "speed" in ds.coords:
+                out["harmonic_ratio_min"] = harmonic_ratio(low, high, ds.speed)
+        if "floquet_multiplier_max" in ds or "status" in ds:
+            out["stable"] = stable_flag(ds.get("floquet_multiplier_max"), ds.get("status"))
         if stress_safety_factor is not None and "peak_stress" in ds:
             strength = _yield_strength(ds)
             if strength is not None:
@@ -95,6 +107,177 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
         out = out.drop_vars("modal_angle")
     out.attrs = {k: v for k, v in ds.attrs.items() if k not in ("scenes", "chunk")}
     return out
+
+
+def harmonic_ratio(f_low: xr.DataArray, f_high: xr.DataArray, speed: xr.DataArray,
+                   harmonics: int = HARMONIC_ORDER) -> xr.DataArray:
+    """Distance of the natural-frequency bands from the nearest crank harmonic.
+
+    min over modes i and k = 1..``harmonics`` of |f_i / (kΩ/2π) − 1|, where f_i ranges over
+    the band [``f_low``, ``f_high``] of mode i over the cycle: 0 when a band contains a
+    harmonic kΩ/2π, else the distance from the nearer band edge. ``speed`` Ω in rad/s.
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> lo = xr.DataArray([[9.0, 43.0]], dims=("case", "mode"))
+    >>> hi = xr.DataArray([[9.5, 44.0]], dims=("case", "mode"))
+    >>> w = xr.DataArray([2 * np.pi * 10.0], dims="case")   # harmonics 10, 20, 30 ... Hz
+    >>> round(float(harmonic_ratio(lo, hi, w)[0]), 6)          # 9.5 vs 10 Hz
+    0.05
+    >>> float(harmonic_ratio(lo, hi + 1.0, w)[0])                # band 9-10.5 contains 10 Hz
+    0.0
+    """
+    k = xr.DataArray(np.arange(1, harmonics + 1, dtype=float), dims="harmonic")
+    h = k * speed / (2.0 * np.pi)
+    inside = (f_low <= h) & (h <= f_high)
+    edge = np.minimum(abs(f_low / h - 1.0), abs(f_high / h - 1.0))
+    dist = xr.where(inside, 0.0, edge).where(np.isfinite(f_low) & np.isfinite(f_high))
+    dims = [d for d in ("mode", "harmonic") if d in dist.dims]
+    out = dist.min(dims, skipna=True).astype("float32")
+    out.attrs = {"units": "1", "long_name": "distance of the natural-frequency bands from the "
+                 "nearest crank harmonic, min over modes i and k of |f_i/(k*speed/2pi) - 1|",
+                 "harmonics": f"1..{harmonics}",
+                 "comment": "f_i over the band [natural_frequency_min, natural_frequency_max] "
+                            "of mode i over the cycle; 0 where a band contains a harmonic"}
+    return out
+
+
+def stable_flag(floquet: xr.DataArray | None, status: xr.DataArray | None) -> xr.DataArray:
+    """1 where the periodic response is stable (Floquet multipliers |μ| ≤ 1 + margin and no
+    parametrically_unstable flag), 0 where unstable, −1 where unknown (no multiplier, failed).
+    """
+    from .ked import INSTABILITY_MARGIN
+
+    ref = floquet if floquet is not None else status
+    value = xr.full_like(ref, -1, dtype="int8")
+    unstable = xr.zeros_like(ref, dtype=bool)
+    known = xr.zeros_like(ref, dtype=bool)
+    if floquet is not None:
+        finite = np.isfinite(floquet)
+        known = known | finite
+        unstable = unstable | (finite & (floquet > 1.0 + INSTABILITY_MARGIN))
+    if status is not None:
+        bits = status.fillna(0).astype(int)
+        unstable = unstable | ((bits & STATUS_FLAGS["parametrically_unstable"]) > 0)
+        known = known & ((bits & STATUS_FLAGS["failed"]) == 0)
+    value = xr.where(unstable, 0, xr.where(known, 1, -1)).astype("int8")
+    value.attrs = {"units": "1", "long_name": "stability of the periodic response (Floquet)",
+                   "flag_values": np.array([0, 1], "int8"), "flag_meanings": "unstable stable",
+                   "_FillValue": np.array(-1, "int8"),
+                   "comment": f"stable: floquet_multiplier_max <= 1 + {INSTABILITY_MARGIN:g} "
+                              "and status not parametrically_unstable; -1 (fill) where unknown"}
+    return value
+
+
+def safe_speed(speeds, peak_stress, status, yield_strength: float | None,
+               stress_safety_factor: float = 2.0) -> float | None:
+    """The largest speed such that it and every lower simulated speed are safe.
+
+    Safe: ``stress_safety_factor`` × ``peak_stress`` ≤ ``yield_strength`` and no status bit of
+    resonant, parametrically_unstable, failed or not_assemblable. Returns NaN when the yield
+    strength is unknown, None ("none") when even the lowest speed fails.
+
+    Examples
+    --------
+    >>> safe_speed([100, 50, 200, 300], [60e6, 50e6, 130e6, 90e6], [0, 0, 0, 0], 235e6, 2.0)
+    100.0
+    """
+    if yield_strength is None or not np.isfinite(yield_strength):
+        return float("nan")
+    order = np.argsort(np.asarray(speeds, float))
+    speeds = np.asarray(speeds, float)[order]
+    stress = np.asarray(peak_stress, float)[order]
+    bits = np.nan_to_num(np.asarray(status, float)[order], nan=STATUS_FLAGS["failed"])
+    ok = (np.isfinite(stress) & (stress_safety_factor * stress <= yield_strength)
+          & ((bits.astype(int) & _UNSAFE_BITS) == 0))
+    n = len(ok) if ok.all() else int(np.argmin(ok))
+    return float(speeds[n - 1]) if n else None
+
+
+_GEOMETRY = ("ground", "crank", "coupler", "rocker", "rod", "offset", "slider_mass")
+
+
+def safe_speed_table(summaries: list[xr.Dataset], stress_safety_factor: float = 2.0):
+    """Safe speed limit per geometry (family, lengths, material, section) of family summaries.
+
+    Returns a pandas DataFrame with the geometry columns, ``yield_strength_MPa``,
+    ``safe_speed_rad_s`` (float, NaN when the yield strength is unknown or no speed is safe)
+    and ``safe_speed`` (text: the speed, "none" or "unknown"), sorted by family then geometry.
+    """
+    import pandas as pd
+
+    from .materials import resolve_material
+
+    rows = []
+    for ds in summaries:
+        keys = [k for k in _GEOMETRY if k in ds.coords and ds[k].dims == ("case",)]
+        keys += [k for k in ("material", "section") if k in ds.coords]
+        stress = (ds.peak_stress.max("link") if "peak_stress" in ds
+                  else xr.full_like(ds.speed, np.nan, dtype=float))
+        status = ds.status if "status" in ds else xr.zeros_like(ds.speed)
+        frame = pd.DataFrame({k: ds[k].values for k in keys})
+        frame["family"] = ds.family.values if "family" in ds.coords else "unknown"
+        frame["speed"], frame["stress"] = ds.speed.values, stress.values
+        frame["status"] = status.values
+        for geometry, group in frame.groupby(["family", *keys], sort=True, dropna=False):
+            row = dict(zip(["family", *keys], geometry))
+            try:
+                strength = resolve_material(str(row["material"]))["yield_strength"]
+            except Exception:  # an inline material: no library entry to look up
+                strength = None
+            limit = safe_speed(group.speed, group.stress, group.status, strength,
+                               stress_safety_factor)
+            row["yield_strength_MPa"] = strength / 1e6 if strength else float("nan")
+            row["peak_stress_at_lowest_speed_MPa"] = float(
+                group.sort_values("speed").stress.iloc[0]) / 1e6
+            row["safe_speed_rad_s"] = float("nan") if limit is None else limit
+            row["safe_speed"] = ("none" if limit is None else "unknown"
+                                 if not np.isfinite(limit) else f"{limit:g}")
+            rows.append(row)
+    columns = ["family", *[k for k in (*_GEOMETRY, "material", "section")
+                           if any(k in r for r in rows)],
+               "yield_strength_MPa", "peak_stress_at_lowest_speed_MPa", "safe_speed_rad_s",
+               "safe_speed"]
+    table = pd.DataFrame(rows, columns=columns)
+    table.attrs["stress_safety_factor"] = float(stress_safety_factor)
+    return table
+
+
+def write_safe_speed_table(paths: list[str], csv: str, markdown: str,
+                           stress_safety_factor: float = 2.0) -> None:
+    """:func:`safe_speed_table` of the family summary files ``paths`` as CSV and markdown."""
+    from pathlib import Path
+
+    summaries = []
+    for path in paths:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            summaries.append(ds.load())
+    table = safe_speed_table(summaries, stress_safety_factor)
+    Path(csv).parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(csv, index=False, float_format="%.6g")
+    counts = table.groupby("family").safe_speed.agg(
+        geometries="size", none=lambda s: int((s == "none").sum()),
+        unknown=lambda s: int((s == "unknown").sum()))
+    lines = [f"# Safe speed limit per geometry (stress safety factor {stress_safety_factor:g})",
+             "", "Largest simulated speed [rad/s] at which it and every lower speed satisfy "
+             "factor x peak stress <= yield strength and are not flagged resonant, "
+             "parametrically unstable or failed; `none` if even the lowest speed fails, "
+             "`unknown` if the material has no yield strength.", "",
+             "| family | geometries | none | unknown |", "|---|---|---|---|"]
+    lines += [f"| {f} | {r.geometries} | {r.none} | {r.unknown} |" for f, r in counts.iterrows()]
+    lines += ["", _markdown(table)]
+    Path(markdown).write_text("\n".join(lines) + "\n")
+
+
+def _markdown(table) -> str:
+    def cell(v):
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    out = ["| " + " | ".join(table.columns) + " |", "|" + "---|" * len(table.columns)]
+    out += ["| " + " | ".join(cell(v) for v in row) + " |"
+            for row in table.itertuples(index=False)]
+    return "\n".join(out)
 
 
 def _grid_dims(summary: xr.Dataset) -> list[str]:

@@ -213,3 +213,107 @@ def test_case_summary_without_elastic_variables():
     grid = family_grid(summary)
     assert grid.attrs["grid_dimensions"] == "crank rod offset speed material"  # no section
     assert float(grid.slider_mass) == 0.05
+
+
+# ------------------------------------------------------------------------------ harmonics, stability
+def test_harmonic_ratio_hand_made():
+    from ced.reduce import harmonic_ratio
+
+    speed = xr.DataArray([2 * np.pi * 10.0, 2 * np.pi * 10.0, 2 * np.pi * 3.0], dims="case")
+    # case 0: band 12.0-12.5 Hz, harmonics 10, 20 Hz -> nearest edge 12.0 vs 10: 0.2;
+    #         mode 2 band 31-31.5 vs 30: 0.0333 -> min 1/30
+    # case 1: mode 1 band 19-21 contains 20 Hz -> 0
+    # case 2: Ω/2π = 3 Hz, K = 20 -> harmonics up to 60 Hz; band 61-62 Hz -> 61/60 - 1
+    low = xr.DataArray([[12.0, 31.0], [19.0, 55.0], [61.0, 70.0]], dims=("case", "mode"))
+    high = xr.DataArray([[12.5, 31.5], [21.0, 56.0], [62.0, 71.0]], dims=("case", "mode"))
+    ratio = harmonic_ratio(low, high, speed)
+    np.testing.assert_allclose(ratio, [1 / 30, 0.0, 61 / 60 - 1], rtol=1e-6)
+    assert ratio.attrs["units"] == "1" and "long_name" in ratio.attrs
+    # with K = 2 the 60 Hz harmonic is out of reach: nearest is 6 Hz
+    np.testing.assert_allclose(harmonic_ratio(low, high, speed, harmonics=2)[2],
+                               61 / 6 - 1, rtol=1e-6)
+
+
+def test_stable_flag():
+    from ced.reduce import stable_flag
+
+    floquet = xr.DataArray([0.5, 1.2, np.nan, 0.9, 0.9], dims="case")
+    status = xr.DataArray(np.array([0, 8, 16, 8, 0], "uint8"), dims="case")
+    flag = stable_flag(floquet, status)
+    assert flag.values.tolist() == [1, 0, -1, 0, 1]
+    assert flag.attrs["flag_meanings"] == "unstable stable"
+
+
+# ------------------------------------------------------------------------------ safe speed
+def test_safe_speed_rule():
+    from ced.reduce import safe_speed
+
+    y = 235e6
+    # monotone: 2 x 100 <= 235 at 50 and 100, 2 x 130 > 235 at 200
+    assert safe_speed([50, 100, 200], [80e6, 100e6, 130e6], [0, 0, 0], y) == 100.0
+    # non-monotone: 200 fails, 300 passes again -> still 100 (every lower speed must pass)
+    assert safe_speed([300, 100, 200, 50], [90e6, 60e6, 130e6, 50e6], [0] * 4, y) == 100.0
+    # all pass -> the highest speed; the lowest fails -> None ("none")
+    assert safe_speed([50, 100], [1e6, 2e6], [0, 0], y) == 100.0
+    assert safe_speed([50, 100], [200e6, 2e6], [0, 0], y) is None
+    # flags: resonant (4) at 100 stops the range; large_deflection (1) alone does not
+    assert safe_speed([50, 100, 150], [1e6] * 3, [0, 4, 0], y) == 50.0
+    assert safe_speed([50, 100, 150], [1e6] * 3, [1, 0, 0], y) == 150.0
+    # failed (NaN stress) and unknown yield strength
+    assert safe_speed([50, 100], [1e6, np.nan], [0, 16], y) == 50.0
+    assert np.isnan(safe_speed([50], [1e6], [0], None))
+    # the safety factor
+    assert safe_speed([50, 100], [80e6, 100e6], [0, 0], y, stress_safety_factor=2.5) == 50.0
+
+
+def test_safe_speed_table(tmp_path):
+    from ced.reduce import safe_speed_table, write_safe_speed_table
+    from ced.io import write_dataset
+
+    ds = synthetic()  # crank 0.1/0.2 x speed 50/100 x material steel/brass (no yield: unknown)
+    stress = np.array([[100e6, 1.0], [110e6, 1.0], [100e6, 1.0], [130e6, 1.0],
+                       [200e6, 1.0], [100e6, 1.0], [1e6, 1.0]])
+    ds["peak_stress"] = (("case", "link"), stress[:ds.sizes["case"]], ds.peak_stress.attrs)
+    ds["material"] = ds.material.where(ds.material != "brass", "steel_cold")  # unknown name
+    table = safe_speed_table([ds], 2.0)
+    rows = {(r.crank, r.material): r.safe_speed for r in table.itertuples()}
+    got = {}
+    for i in range(ds.sizes["case"]):
+        got.setdefault((float(ds.crank[i]), str(ds.material[i].item())), []).append(
+            (float(ds.speed[i]), float(stress[i, 0]), int(ds.status[i])))
+    for key, cases in got.items():
+        expect = "unknown" if key[1] != "steel" else None
+        if expect is None:
+            limit = None
+            for speed, s, st in sorted(cases):
+                if 2 * s > 235e6 or st & 4:
+                    break
+                limit = speed
+            expect = "none" if limit is None else f"{limit:g}"
+        assert rows[key] == expect, (key, cases)
+    write_dataset(ds, tmp_path / "f.nc")
+    write_safe_speed_table([str(tmp_path / "f.nc")], tmp_path / "t.csv", tmp_path / "t.md")
+    assert "safe_speed" in (tmp_path / "t.csv").read_text().splitlines()[0]
+    assert "| crank_rocker |" in (tmp_path / "t.md").read_text()
+
+
+def test_reduced_family_harmonics_and_stability(study):
+    _, directory, _ = study
+    with xr.open_dataset(directory / "map.nc", engine="netcdf4") as ds, \
+            xr.open_dataset(directory / "grid.nc", engine="netcdf4") as grid:
+        assert not cf_problems(ds) and not cf_problems(grid)
+        for name in ("harmonic_ratio_min", "stable", "floquet_multiplier_max"):
+            assert name in ds and name in grid, name
+        from ced.reduce import harmonic_ratio
+
+        expect = harmonic_ratio(ds.natural_frequency_min, ds.natural_frequency_max, ds.speed)
+        np.testing.assert_allclose(ds.harmonic_ratio_min, expect, rtol=1e-6)
+        assert (ds.harmonic_ratio_min >= 0).all()
+        unstable = (ds.status.astype(int) & STATUS_FLAGS["parametrically_unstable"]) > 0
+        assert ((ds.stable == 0) | ~unstable).all()
+        for i in range(ds.sizes["case"]):  # per-case and grid files agree
+            c = ds.isel(case=i)
+            at = dict(crank=c.crank.item(), coupler=c.coupler.item(), rocker=c.rocker.item(),
+                      speed=c.speed.item(), material=c.material.item(), section=c.section.item())
+            np.testing.assert_allclose(grid.harmonic_ratio_min.sel(at), c.harmonic_ratio_min)
+            np.testing.assert_array_equal(grid.stable.sel(at), c.stable)

@@ -53,6 +53,9 @@ def test_dry_run(path, tmp_path):
     assert counts["reduce_family"] == len(n_chunks)
     assert counts["overview_figure"] == 1
     assert counts["fidelity_ladder"] == 1
+    assert counts["resonance_map"] == len(n_chunks)
+    assert counts["worst_case_figure"] == len(n_chunks)
+    assert counts["safe_speed_table"] == 1
     expected = len(n_chunks) if config["base_scene"].get("modal") else 0
     assert counts.get("campbell_figure", 0) == expected
     assert f"results/{config['study']}/maps/" in output
@@ -83,7 +86,8 @@ def test_lint():
     assert not others, text
     rules = re.findall(r"^Lints for rule (\w+)", text, re.M)
     assert set(rules) <= {"simulate_chunk", "reduce_family", "overview_figure",
-                          "campbell_figure", "fidelity_ladder"}
+                          "campbell_figure", "fidelity_ladder", "resonance_map",
+                          "worst_case_figure", "safe_speed_table"}
 
 
 @pytest.fixture(scope="module")

@@ -42,3 +42,76 @@ rule campbell_figure:
         "results/{study}/logs/figures/campbell/{family}.log",
     script:
         "../scripts/campbell_figure.py"
+
+
+rule resonance_map:
+    """Resonance map of one family: speed x one length, peak stress, harmonics k*Omega/2pi = f1."""
+    input:
+        "results/{study}/maps/{family}_grid.nc",
+    output:
+        png=report(
+            "results/{study}/figures/resonance/{family}.png",
+            caption="../report/resonance.rst",
+            category="Resonance maps",
+            labels={"family": "{family}", "format": "PNG"},
+        ),
+        svg=report(
+            "results/{study}/figures/resonance/{family}.svg",
+            caption="../report/resonance.rst",
+            category="Resonance maps",
+            labels={"family": "{family}", "format": "SVG"},
+        ),
+    log:
+        "results/{study}/logs/figures/resonance/{family}.log",
+    params:
+        material=config["materials"][0] if isinstance(config["materials"][0], str) else None,
+    script:
+        "../scripts/resonance_map.py"
+
+
+rule worst_case_figure:
+    """Time history and deformed linkage of the case with the family's largest peak stress."""
+    input:
+        summary="results/{study}/maps/{family}.nc",
+        chunks=lambda wildcards: expand(
+            "results/{study}/chunks/{family}/{chunk}.nc",
+            study=wildcards.study,
+            family=wildcards.family,
+            chunk=range(CHUNKS[wildcards.family]),
+        ),
+    output:
+        png=report(
+            "results/{study}/figures/worst_case/{family}.png",
+            caption="../report/worst_case.rst",
+            category="Worst cases",
+            labels={"family": "{family}", "format": "PNG"},
+        ),
+        svg=report(
+            "results/{study}/figures/worst_case/{family}.svg",
+            caption="../report/worst_case.rst",
+            category="Worst cases",
+            labels={"family": "{family}", "format": "SVG"},
+        ),
+    log:
+        "results/{study}/logs/figures/worst_case/{family}.log",
+    script:
+        "../scripts/worst_case_figure.py"
+
+
+rule safe_speed_table:
+    """Safe speed limit per geometry: factor x peak stress <= yield, not resonant/unstable."""
+    input:
+        expand("results/{{study}}/maps/{family}.nc", family=FAMILIES),
+    output:
+        csv=report(
+            "results/{study}/tables/safe_speed.csv",
+            caption="../report/safe_speed.rst",
+            category="Safe speed limits",
+        ),
+        md="results/{study}/tables/safe_speed.md",
+    log:
+        "results/{study}/logs/tables/safe_speed.log",
+    params:
+        stress_safety_factor=config["stress_safety_factor"],
+    script:
+        "../scripts/safe_speed_table.py"
