@@ -317,15 +317,16 @@ def magnification(deflection: float, size: float, fraction: float = 0.1) -> floa
     return float(mantissa * 10**exponent)
 
 
-#: A resonant or parametrically unstable periodic state (finite but unbounded in reality) or a
-#: failed case is no design answer; the worst case is chosen among the others.
+#: A resonant or parametrically unstable periodic state (finite but unbounded in reality), a
+#: deflection beyond the linear model's validity, or a failed case is no design answer; the
+#: worst case is chosen among the others.
 _NOT_A_DESIGN_CASE = (STATUS_FLAGS["failed"] | STATUS_FLAGS["resonant"]
-                      | STATUS_FLAGS["parametrically_unstable"])
+                      | STATUS_FLAGS["parametrically_unstable"] | STATUS_FLAGS["large_deflection"])
 
 
 def _worst_case(summary: xr.Dataset) -> int | None:
     """Case id with the largest peak stress (max over links) among cases not flagged failed,
-    resonant or parametrically unstable (those are reported by their flags and maps)."""
+    resonant, parametrically unstable or large_deflection (reported by flags and maps)."""
     stress = summary.peak_stress.max("link").values
     bits = (np.nan_to_num(summary.status.values).astype(int) if "status" in summary
             else np.zeros(stress.shape, int))
@@ -338,7 +339,7 @@ def _worst_case(summary: xr.Dataset) -> int | None:
 def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str | Path,
                       svg: str | Path | None = None) -> None:
     """Time history of a family's worst case: the case with the largest peak stress (max over
-    links) not flagged failed, resonant or parametrically unstable.
+    links) not flagged failed, resonant, parametrically unstable or large_deflection.
 
     Left: stress and transverse deflection at mid-span of the coupler (four-bar) or rod
     (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
