@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 CORES ?= 2
 
-.PHONY: study test bench clean
+.PHONY: study test bench clean cluster-test
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,11 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+# Long, needs root: a single-node SLURM on this machine (apt-get slurm-wlm munge), the executor
+# plugin pip-installed into .venv, the test study through workflow/profiles/slurm vs. locally.
+cluster-test: $(STAMP)
+	BIN=$(BIN) tests/cluster/run.sh
 
 clean:
 	rm -rf $(VENV) results .snakemake
