@@ -1,6 +1,11 @@
 """Shared test helpers: random assemblable linkages for hypothesis."""
 from __future__ import annotations
 
+import fcntl
+import os
+import shutil
+from pathlib import Path
+
 import numpy as np
 from hypothesis import strategies as st
 
@@ -32,3 +37,20 @@ def drive_of(g, a, b, c, amplitude=0.9):
     if lim.full_rotation:
         return 0.3, np.nan
     return lim.mid, amplitude * lim.half_range
+
+
+def shared(tmp_path_factory, name: str, build) -> Path:
+    """``build(directory)`` once per test session, even across pytest-xdist workers (they share
+    the parent of their base temporary directories; a file lock serializes them)."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    directory = root / name
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (directory / ".done").exists():
+            shutil.rmtree(directory, ignore_errors=True)
+            directory.mkdir()
+            build(directory)
+            (directory / ".done").touch()
+    return directory

@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 from ced.study import chunks
+from tests.conftest import shared
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
@@ -81,23 +82,6 @@ def browse(*args: str, user_data: Path, timeout=120) -> subprocess.CompletedProc
     result = subprocess.run(cmd, capture_output=True, timeout=timeout)
     assert result.returncode == 0, f"{' '.join(cmd)}\n{result.stderr.decode(errors='replace')}"
     return result
-
-
-def shared(tmp_path_factory, name: str, build) -> Path:
-    """``build(directory)`` once per test session, even across pytest-xdist workers (they share
-    the parent of their base temporary directories; a file lock serializes them)."""
-    root = tmp_path_factory.getbasetemp()
-    if os.environ.get("PYTEST_XDIST_WORKER"):
-        root = root.parent
-    directory = root / name
-    with open(root / f"{name}.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (directory / ".done").exists():
-            shutil.rmtree(directory, ignore_errors=True)
-            directory.mkdir()
-            build(directory)
-            (directory / ".done").touch()
-    return directory
 
 
 @pytest.fixture(scope="module")

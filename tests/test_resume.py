@@ -7,10 +7,8 @@ Each run happens in its own temporary directory with Snakemake as a subprocess i
 process group, so the interruption hits Snakemake and its jobs together (Ctrl-C, or a killed
 node for SIGKILL)."""
 import base64
-import fcntl
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +21,7 @@ import xarray as xr
 import yaml
 
 from ced.study import chunks
+from tests.conftest import shared
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
@@ -116,23 +115,6 @@ def assert_bitwise_equal(a: dict, b: dict):
             assert np.array_equal(x, y, equal_nan=equal_nan), (target, name)
             if equal_nan:  # same bits, not only same values (signed zeros, NaN payloads)
                 assert x.tobytes() == y.tobytes(), (target, name)
-
-
-def shared(tmp_path_factory, name: str, build) -> Path:
-    """``build(directory)`` once per test session, even across pytest-xdist workers (they share
-    the parent of their base temporary directories; a file lock serializes them)."""
-    root = tmp_path_factory.getbasetemp()
-    if os.environ.get("PYTEST_XDIST_WORKER"):
-        root = root.parent
-    directory = root / name
-    with open(root / f"{name}.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (directory / ".done").exists():
-            shutil.rmtree(directory, ignore_errors=True)
-            directory.mkdir()
-            build(directory)
-            (directory / ".done").touch()
-    return directory
 
 
 @pytest.fixture(scope="module")
