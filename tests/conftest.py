@@ -7,9 +7,16 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+from hypothesis import assume, settings
 from hypothesis import strategies as st
 
-from ced.mechanism import assembly_error, classify, input_limits
+from ced.mechanism import assembly_error, input_limits
+
+
+# CI runs the same examples every time (reproducible); local runs keep exploring.
+settings.register_profile("ci", derandomize=True, deadline=None)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 
 @st.composite
@@ -22,9 +29,11 @@ def four_bars(draw):
     if longest > 0.97 * (sum(lengths) - longest):
         lengths[lengths.index(longest)] = 0.9 * (sum(lengths) - longest)
     g, a, b, c = lengths
-    fam = classify(g, a, b, c)
-    if fam == "change_point":
-        b *= 1.01
+    # Near a change point the motion's higher derivatives grow without bound (accelerations of
+    # ~1e4 rad/s² at |S + L − P − Q| ~ 1e-3), so finite-difference yardsticks lose their
+    # accuracy there; change points have their own tests (parallelogram, hard cases).
+    s_, p_, q_, l_ = sorted((g, a, b, c))
+    assume(abs(s_ + l_ - p_ - q_) > 0.02 * (g + a + b + c))
     branch = draw(st.sampled_from([1.0, -1.0]))
     assert assembly_error({"type": "four_bar", "ground": g, "crank": a,
                            "coupler": b, "rocker": c}) is None
