@@ -80,6 +80,9 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
     "error_estimate": (("case",), "1", "estimated relative error of peak stress", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
+    "error_estimate": (
+        ("case",), "1",
+        "estimated relative discretization error of the case's peak stress", _F64),
     "effects_auto": (
         ("case",), "", "effects chosen by effects: auto, with the estimated relative "
         "contribution of each (JSON)", "str"),
