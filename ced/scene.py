@@ -162,6 +162,7 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
     "outputs": {
         "stations": (Int(3, 10_001, odd=True, hint="odd so that 0.5 is a station"), 11),
         "every": (Int(1, None, hint="write every n-th step"), 1),
+        "error_estimate": (Bool(), True),
     },
 }
 

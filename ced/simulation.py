@@ -102,6 +102,93 @@ def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
     return merged, messages
 
 
+def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]]) -> list[tuple]:
+    """Solve each group of structurally identical scenes as one batch.
+
+    Returns (batch, indices, result, (messages, seconds per case)) per group.
+    """
+    solved = []
+    for indices in groups.values():
+        batch = make_batch([scenes[i] for i in indices])
+        start = _time.perf_counter()
+        result, messages = _solve_isolated(batch)
+        seconds = (_time.perf_counter() - start) / batch.size
+        solved.append((batch, indices, result, (messages, seconds)))
+    return solved
+
+
+def _case_peak(peak_stress: np.ndarray) -> np.ndarray:
+    """(case, link) → (case,): the largest peak over the links (NaN-safe), Pa."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isnan(peak_stress).all(axis=1), np.nan,
+                        np.nanmax(np.where(np.isnan(peak_stress), -np.inf, peak_stress), axis=1))
+
+
+def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.ndarray:
+    """Largest first natural frequency over the cycle, rad/s, per case (caller's order).
+
+    Taken from the modal analysis when the scenes ask for one; otherwise a frozen analysis at
+    four phases is made here (only for the error estimate).
+    """
+    if "natural_frequency" in data:
+        f1 = data["natural_frequency"][:, :, 0]
+        return 2.0 * np.pi * np.nanmax(np.where(np.isfinite(f1), np.abs(f1), 0.0), axis=1)
+    from .ked import _modal, build_model
+
+    parts = []
+    for batch, *_ in solved:
+        freq = _modal(build_model(batch), {"modes": 1, "angles": 4})[..., 0]
+        parts.append(2.0 * np.pi * np.nanmax(np.abs(freq), axis=1))
+    return np.concatenate(parts)[order]
+
+
+def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
+                    order: np.ndarray) -> np.ndarray:
+    """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`)."""
+    from .accuracy import combine, companions, time_resolution_error
+
+    wanted = [i for i, s in enumerate(scenes) if s["outputs"]["error_estimate"]
+              and isinstance(s["discretization"], dict)
+              and s["discretization"]["formulation"] != "rigid"]
+    estimate = np.full(len(scenes), np.nan)
+    if not wanted:
+        return estimate
+    plans = {i: companions(scenes[i]) for i in wanted}
+    slots = max(len(p) for p in plans.values())
+    peak = _case_peak(data["peak_stress"])
+    terms = np.zeros(len(scenes))
+    for slot in range(slots):
+        cases = [i for i in wanted if len(plans[i]) > slot]
+        others = [plans[i][slot].scene for i in cases]
+        groups: dict[tuple, list[int]] = {}
+        for j, scene in enumerate(others):
+            groups.setdefault(structure_key(scene), []).append(j)
+        companion_peak = np.full(len(cases), np.nan)
+        for _, indices, result, _ in _solve_groups(others, groups):
+            value = _case_peak(result["peak_stress"])
+            failed = (result["status"] & io.STATUS_FLAGS["failed"]) > 0
+            companion_peak[indices] = np.where(failed, np.nan, value)
+        factor = np.array([plans[i][slot].factor for i in cases])
+        terms[cases] += combine(peak[cases], [companion_peak], [1.0]) * factor
+    estimate[wanted] = terms[wanted]
+    dynamic = [i for i in wanted if "elastic_inertia" in scenes[i]["effects"]]
+    if dynamic:
+        omega = _first_frequency(solved, data, order)[dynamic]
+        h = np.array([2.0 * np.pi / (scenes[i]["drive"]["speed"]
+                                     * scenes[i]["time"]["steps_per_revolution"])
+                      for i in dynamic])
+        amplification = np.abs(data["dynamic_amplification"][dynamic])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.nanmax(np.where(amplification > 0, np.abs(1.0 - 1.0 / amplification),
+                                       0.0), axis=1)
+        for i, w, s in zip(dynamic, omega * h, share):
+            a_priori = time_resolution_error(scenes[i]["time"], np.array([w]), np.array([s]))
+            estimate[i] = np.fmax(estimate[i], a_priori[0])
+    failed = (data["status"] & io.STATUS_FLAGS["failed"]) > 0
+    estimate[failed] = np.nan
+    return estimate
+
+
 def _case_coords(batches: list[Batch], order: np.ndarray) -> dict:
     """Per-case parameters as coordinates on ``case`` (DESIGN §5)."""
     scenes = [s for b in batches for s in b.scenes]
@@ -181,23 +268,19 @@ def simulate(scenes) -> xr.Dataset:
             "simulate: scenes must share the number of output steps "
             "(time.revolutions × time.steps_per_revolution / outputs.every)")
 
-    batches, results, messages, times, positions = [], [], [], [], []
-    for indices in groups.values():
-        batch = make_batch([normalized[i] for i in indices])
-        start = _time.perf_counter()
-        result, msgs = _solve_isolated(batch)
-        elapsed = _time.perf_counter() - start
-        batches.append(batch)
-        results.append(result)
-        messages += msgs
-        times += [elapsed / batch.size] * batch.size
-        positions += indices
+    solved = _solve_groups(normalized, groups)
+    batches = [batch for batch, _, _, _ in solved]
+    positions = [i for _, indices, _, _ in solved for i in indices]
     # Restore the caller's order of cases.
     order = np.argsort(np.array(positions))
+    results = [result for _, _, result, _ in solved]
     names = set.intersection(*(set(r) for r in results))
     data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
-    data["solve_time"] = np.array(times)[order]
-    data["message"] = np.array(messages, dtype=object)[order]
+    data["solve_time"] = np.concatenate(
+        [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
+    data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
+    if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
+        data["error_estimate"] = _error_estimate(normalized, data, solved, order)
     if auto_reports is not None:
         data["effects_auto"] = np.array(auto_reports, dtype=object)
 

@@ -50,7 +50,7 @@ def test_minimal_four_bar_gets_documented_defaults():
                          "integrator": "generalized_alpha", "rho_inf": 0.9, "beta": 0.25,
                          "gamma": 0.5, "alpha": -0.05, "start": "undeformed"}
     assert s["modal"] is None
-    assert s["outputs"] == {"stations": 11, "every": 1}
+    assert s["outputs"] == {"stations": 11, "every": 1, "error_estimate": True}
     assert s["tolerance"] == 1e-3
     assert set(s["links"]) == {"crank", "coupler", "rocker"}
     for link in s["links"].values():
