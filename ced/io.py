@@ -35,6 +35,10 @@ STATUS_FLAGS = {
     "parametrically_unstable": 8,
     "failed": 16,
     "not_assemblable": 32,
+    # The frozen structure K_eff has a negative eigenvalue at some phase (a link compressed
+    # beyond its Euler load, or centrifugal softening of a near-mechanism mode): reported as
+    # a negative natural_frequency, −√|λ|/2π (ced.modal, ced.ked._buckled).
+    "buckled": 64,
 }
 
 _F64, _F32 = "float64", "float32"
@@ -78,8 +82,12 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case", "link"), "m s-1", "transverse wave speed sqrt(mu/rho)", _F64),
     "floquet_multiplier_max": (
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
+    "discretization_auto": (
+        ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
     "error_estimate": (("case",), "1", "estimated relative error of peak stress", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
+    "discretization_auto": (
+        ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
     "error_estimate": (
         ("case",), "1",
         "estimated relative discretization error of the case's peak stress", _F64),

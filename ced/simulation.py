@@ -177,16 +177,39 @@ def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
         h = np.array([2.0 * np.pi / (scenes[i]["drive"]["speed"]
                                      * scenes[i]["time"]["steps_per_revolution"])
                       for i in dynamic])
-        amplification = np.abs(data["dynamic_amplification"][dynamic])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            share = np.nanmax(np.where(amplification > 0, np.abs(1.0 - 1.0 / amplification),
-                                       0.0), axis=1)
+        share = _dynamic_share(data["dynamic_amplification"][dynamic])
         for i, w, s in zip(dynamic, omega * h, share):
             a_priori = time_resolution_error(scenes[i]["time"], np.array([w]), np.array([s]))
             estimate[i] = np.fmax(estimate[i], a_priori[0])
     failed = (data["status"] & io.STATUS_FLAGS["failed"]) > 0
     estimate[failed] = np.nan
     return estimate
+
+
+def _dynamic_share(amplification: np.ndarray) -> np.ndarray:
+    """(case, link) dynamic amplification → (case,) share of vibration 1 − 1/A, in [0, 1]."""
+    a = np.abs(amplification)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(a > 0, np.abs(1.0 - 1.0 / a), 0.0)
+    return np.clip(np.nanmax(np.where(np.isfinite(share), share, 0.0), axis=1), 0.0, 1.0)
+
+
+def _pilot_solve(scenes: list[dict]) -> dict[str, np.ndarray]:
+    """Peak stress, first natural frequency and dynamic share of pilot scenes (for
+    :func:`ced.discretize.resolve_discretization`), in the order given."""
+    groups: dict[tuple, list[int]] = {}
+    for index, scene in enumerate(scenes):
+        groups.setdefault(structure_key(scene), []).append(index)
+    out = {"peak": np.full(len(scenes), np.nan), "omega1": np.full(len(scenes), np.nan),
+           "share": np.ones(len(scenes))}
+    for _, indices, result, _ in _solve_groups(scenes, groups):
+        out["peak"][indices] = _case_peak(result["peak_stress"])
+        if "dynamic_amplification" in result:
+            out["share"][indices] = _dynamic_share(result["dynamic_amplification"])
+        if "natural_frequency" in result:
+            f1 = np.abs(result["natural_frequency"][:, :, 0])
+            out["omega1"][indices] = 2.0 * np.pi * np.nanmax(f1, axis=1)
+    return out
 
 
 def _case_coords(batches: list[Batch], order: np.ndarray) -> dict:
@@ -256,6 +279,12 @@ def simulate(scenes) -> xr.Dataset:
         normalized = [scene for scene, _ in resolved]
         auto_reports = [json.dumps(report, sort_keys=True) if report else "" for _, report in
                         resolved]
+    auto_discretization = None
+    if any(s["discretization"] == "auto" for s in normalized):
+        from .discretize import resolve_discretization
+
+        normalized, reports = resolve_discretization(normalized, _pilot_solve)
+        auto_discretization = [json.dumps(r, sort_keys=True) if r else "" for r in reports]
     kinds = {s["mechanism"]["type"] for s in normalized}
     if len(kinds) > 1:
         raise ValueError(f"simulate: all scenes must share mechanism.type, got {sorted(kinds)}")
@@ -281,6 +310,8 @@ def simulate(scenes) -> xr.Dataset:
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
     if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
         data["error_estimate"] = _error_estimate(normalized, data, solved, order)
+    if auto_discretization is not None:
+        data["discretization_auto"] = np.array(auto_discretization, dtype=object)
     if auto_reports is not None:
         data["effects_auto"] = np.array(auto_reports, dtype=object)
 
