@@ -82,9 +82,6 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case", "link"), "m s-1", "transverse wave speed sqrt(mu/rho)", _F64),
     "floquet_multiplier_max": (
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
-    "discretization_auto": (
-        ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
-    "error_estimate": (("case",), "1", "estimated relative error of peak stress", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
     "discretization_auto": (
         ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
