@@ -96,6 +96,7 @@ def companions(scene: dict) -> list[Companion]:
         out["time"]["steps_per_revolution"] = steps
         # Keep the output instants when possible: a step twice as long, half as many per output.
         out["outputs"]["every"] = max(1, every * steps // spr)
+        out["modal"] = None  # only the peak stress is compared
         out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
         return out
 

@@ -71,7 +71,8 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case", "step", "link", "station"), "Pa",
         "normal stress at the outer fibre of larger magnitude", _F32),
     "natural_frequency": (
-        ("case", "modal_angle", "mode"), "Hz", "natural frequency of the linkage", _F64),
+        ("case", "modal_angle", "mode"), "Hz", "natural frequency of the frozen linkage; negative, −√|λ|/2π, for a negative "
+        "eigenvalue λ (status flag buckled)", _F64),
     "peak_deflection": (("case", "link"), "m", "peak absolute deflection", _F64),
     "peak_stress": (("case", "link"), "Pa", "peak absolute stress", _F64),
     "dynamic_amplification": (

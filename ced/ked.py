@@ -17,6 +17,7 @@ from . import io
 from .assembly import Layout, build_layout, projection
 from .cases import Batch
 from .dynamics import inverse_dynamics
+from .errors import SceneError
 from .effects import (LinkData, SystemTerms, axial_force_coefficients, permute, split_order,
                       system_terms)
 from .integrators import NewmarkFamily, make_integrator
@@ -26,7 +27,8 @@ from .reduction import craig_bampton
 from .stepping import from_independent, independent, march
 from .stepping import start as start_state
 
-__all__ = ["elastic_response", "Model", "build_model", "LARGE_DEFLECTION", "RESONANCE_GAP"]
+__all__ = ["elastic_response", "Model", "build_model", "LARGE_DEFLECTION", "RESONANCE_GAP",
+           "dyad_sine_min", "near_singular", "BUCKLED_TOLERANCE", "NEAR_SINGULAR_SIN"]
 
 #: Deflection / link length above which the linear model's validity is flagged.
 LARGE_DEFLECTION = 0.01
@@ -38,6 +40,13 @@ RESONANCE_GAP = 0.05
 RESONANCE_SHARE = 0.5
 #: max |μ| above which the periodic system is parametrically unstable.
 INSTABILITY_MARGIN = 1e-6
+#: A frozen frequency below −BUCKLED_TOLERANCE × the largest computed one is a negative
+#: eigenvalue of K_eff (relative size 1e-10, far above round-off of the eigensolver, ~1e-16;
+#: an exact mechanism mode, λ = 0, stays below it): the frozen structure is statically unstable.
+BUCKLED_TOLERANCE = 1e-5
+#: |sin μ| (μ the coupler–rocker angle) below which the structure has lost its stiffness: the
+#: soft mode across the dyad keeps less than 1 % of its stiffness, a tenth of its frequency.
+NEAR_SINGULAR_SIN = 0.1
 #: Bytes of system terms kept in memory at once (steps per chunk follow from the batch size).
 _CHUNK_BYTES = 50e6
 
@@ -345,18 +354,23 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
 
     ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
-    elastic ones (resonant, parametrically_unstable, large_deflection).
+    elastic ones (resonant, parametrically_unstable, large_deflection, near_singular where the
+    pin-jointed structure loses its stiffness, buckled).
     """
     model = build_model(batch)
     scene = batch.scenes[0]
+    _check_modes(scene, model.layout.ny)
     status = status.copy()
+    status[near_singular(batch)] |= io.STATUS_FLAGS["near_singular"]
     result: dict[str, np.ndarray] = {}
     qz, qz_static = _response(model, status, result)
     result.update(_recover(model, qz, qz_static))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= io.STATUS_FLAGS["large_deflection"]
     if scene.get("modal") and model.layout.ny:
-        result["natural_frequency"] = _modal(model, scene["modal"])
+        freq = _modal(model, scene["modal"])
+        result["natural_frequency"] = freq
+        status[_buckled(freq)] |= io.STATUS_FLAGS["buckled"]
     if scene["discretization"]["formulation"] == "seed_lame":
         # The thesis's wave analysis (III.3.1.a), reported per link material.
         for key, name in (("c1", "longitudinal_wave_speed"), ("c2", "transverse_wave_speed")):
@@ -475,9 +489,71 @@ def _modal(model: Model, modal: dict) -> np.ndarray:
     phase = 2.0 * math.pi * np.arange(n) / n
     times = phase[None, :] / model.batch.speed[:, None]
     terms, _ = terms_at(model, times, model.effects - {"damping"}, frozenset({"elastic_mass"}))
-    modes = min(modal["modes"], model.layout.ny)
-    freq = natural_frequencies(terms.stiffness, terms.elastic_mass, modes)
-    if modes < modal["modes"]:
-        pad = np.full(freq.shape[:-1] + (modal["modes"] - modes,), np.nan)
-        freq = np.concatenate([freq, pad], axis=-1)
-    return freq
+    return natural_frequencies(terms.stiffness, terms.elastic_mass, modal["modes"])
+
+
+def _check_modes(scene: dict, ny: int) -> None:
+    """A discretized model with ny DOFs has exactly ny modes: asking for more is an impossible
+    value (DESIGN §4), reported before any work rather than padded with NaN."""
+    modal = scene.get("modal")
+    if modal and ny and modal["modes"] > ny:
+        raise SceneError(
+            "modal.modes", f"{modal['modes']} modes asked for, but the discretized model has "
+            f"only {ny} degrees of freedom (discretization {scene['discretization']}); ask for "
+            f"at most {ny} or refine the discretization")
+
+
+def _buckled(freq: np.ndarray) -> np.ndarray:
+    """(case,) bool: the frozen K_eff has a negative eigenvalue at some modal angle.
+
+    :func:`ced.modal.natural_frequencies` reports a negative eigenvalue λ as the frequency
+    −√|λ|/2π. With axial stiffening, a link compressed beyond its Euler load has one (the
+    linear model then describes a link that would buckle); centrifugal softening of a
+    near-mechanism mode (change points) gives one too.
+    """
+    scale = np.abs(freq).max(axis=(1, 2), keepdims=True)
+    return (freq < -BUCKLED_TOLERANCE * scale).any(axis=(1, 2))
+
+
+def dyad_sine_min(batch: Batch) -> np.ndarray:
+    """Smallest |sin μ| over the motion, μ the angle between coupler and rocker at C, (case,).
+
+    Exact, not sampled on the step grid: with d = |BD| = √(a² + g² − 2ag cos θ),
+    cos μ = (b² + c² − d²)/(2bc) is monotonic in d, so |sin μ| is smallest at an end of the
+    range of d the input traverses (θ over the whole circle for a crank; θ_mid ± A for a rocker
+    input, where d is extreme at the ends or at θ = kπ inside). 1 for mechanisms without a dyad.
+    """
+    if batch.mechanism_type != "four_bar":
+        return np.ones(batch.size)
+    L = batch.lengths
+    g, a, b, c = L["ground"], L["crank"], L["coupler"], L["rocker"]
+    amp = np.where(np.isfinite(batch.amplitude), batch.amplitude, math.pi)
+    lo, hi = batch.initial_angle - amp, batch.initial_angle + amp
+    cos_ends = np.stack([np.cos(lo), np.cos(hi)])
+    # θ = 2kπ (cos 1) or (2k + 1)π (cos −1) inside [lo, hi]; a crank covers both.
+    has_zero = np.floor(hi / (2 * math.pi)) >= np.ceil(lo / (2 * math.pi))
+    has_pi = np.floor((hi - math.pi) / (2 * math.pi)) >= np.ceil((lo - math.pi) / (2 * math.pi))
+    cos_max = np.where(has_zero, 1.0, cos_ends.max(axis=0))
+    cos_min = np.where(has_pi, -1.0, cos_ends.min(axis=0))
+    sines = []
+    for cos_theta in (cos_max, cos_min):
+        d2 = a * a + g * g - 2.0 * a * g * cos_theta
+        cos_mu = np.clip((b * b + c * c - d2) / (2.0 * b * c), -1.0, 1.0)
+        sines.append(np.sqrt(1.0 - cos_mu**2))
+    return np.minimum(*sines)
+
+
+def near_singular(batch: Batch) -> np.ndarray:
+    """(case,) bool: the elastic structure loses its stiffness somewhere in the cycle.
+
+    Coupler and rocker pinned at C resist a motion of C across their common line only through
+    the angle between them: whatever holds the structure (their axial stiffness, the bending of
+    a flexible input link seen through the linkage's velocity ratio, which grows as 1/sin μ
+    towards a toggle), the stiffness of that mode scales as sin²μ and its frequency as |sin μ|;
+    at sin μ = 0 (change point, toggle) the pin-jointed structure is an infinitesimal mechanism.
+    Flagged when |sin μ| falls below NEAR_SINGULAR_SIN somewhere in the motion, exactly
+    (:func:`dyad_sine_min`), not only on the step grid. Example: a double rocker (0.5, 0.35,
+    0.1, 0.45) at 99 % of its input range has sin μ = 0.127 and its lowest frozen frequency
+    drops from 25.5 Hz to 3.6 Hz at the extremes, in proportion.
+    """
+    return dyad_sine_min(batch) < NEAR_SINGULAR_SIN

@@ -319,9 +319,10 @@ def magnification(deflection: float, size: float, fraction: float = 0.1) -> floa
 
 #: A resonant or parametrically unstable periodic state (finite but unbounded in reality), a
 #: deflection beyond the linear model's validity, or a failed case is no design answer; the
-#: worst case is chosen among the others.
+#: worst case is chosen among the others; so is a buckled one (a link beyond its Euler load).
 _NOT_A_DESIGN_CASE = (STATUS_FLAGS["failed"] | STATUS_FLAGS["resonant"]
-                      | STATUS_FLAGS["parametrically_unstable"] | STATUS_FLAGS["large_deflection"])
+                      | STATUS_FLAGS["parametrically_unstable"] | STATUS_FLAGS["large_deflection"]
+                      | STATUS_FLAGS["buckled"])
 
 
 def _worst_case(summary: xr.Dataset) -> int | None:

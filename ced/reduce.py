@@ -38,9 +38,11 @@ __all__ = ["case_summary", "family_grid", "reduce_family", "harmonic_ratio", "st
 #: Crank harmonics k = 1..K searched by :func:`harmonic_ratio`.
 HARMONIC_ORDER = 20
 
-#: Status bits that disqualify a case from the safe speed range.
+#: Status bits that disqualify a case from the safe speed range (buckled: a link compressed
+#: beyond its Euler load at some phase is no safe design, whatever its linear stress).
 _UNSAFE_BITS = (STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"]
-                | STATUS_FLAGS["failed"] | STATUS_FLAGS["not_assemblable"])
+                | STATUS_FLAGS["failed"] | STATUS_FLAGS["not_assemblable"]
+                | STATUS_FLAGS["buckled"])
 
 #: Per-case variables carried over unchanged when present.
 _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",

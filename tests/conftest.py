@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import assume, settings
 from hypothesis import strategies as st
 
@@ -63,3 +64,23 @@ def shared(tmp_path_factory, name: str, build) -> Path:
             build(directory)
             (directory / ".done").touch()
     return directory
+
+
+@pytest.fixture(scope="session")
+def reference_four_bar_peak() -> float:
+    """Converged peak stress of config/scenes/reference_four_bar.yaml, Pa: reduced fine meshes
+    (modal truncation below 1e-5) extrapolated at order 2 in space and in time."""
+    import yaml
+
+    from ced.simulation import simulate
+
+    def peak(ne, spr):
+        raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+        raw.pop("modal")
+        raw["discretization"] = {"elements_per_link": ne, "modes_per_link": 4}
+        raw["time"]["steps_per_revolution"] = spr
+        raw["outputs"] = {"error_estimate": False}
+        return float(simulate(raw).peak_stress.max())
+
+    fine, space, time = peak(128, 1024), peak(64, 1024), peak(128, 512)
+    return fine + (fine - space) / 3.0 + (fine - time) / 3.0

@@ -1,0 +1,61 @@
+"""discretization: auto — the cheapest setting under the tolerance, and the achieved error."""
+import json
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings, strategies as st
+
+from ced.discretize import _ELEMENTS, MODES, SAFETY, _cost, choose
+from ced.simulation import simulate
+
+
+def _no_a_priori(steps):
+    return np.zeros(len(steps))
+
+
+@given(space=st.floats(1e-3, 10.0), time=st.floats(1e-2, 1e3),
+       tol=st.sampled_from([1e-2, 1e-3, 1e-4]))
+@settings(max_examples=25, deadline=None)
+def test_choice_meets_the_tolerance_at_least_cost(space, time, tol):
+    elements, steps, predicted = choose(space, time, tol, 1.0, 16, _no_a_priori)
+    assert predicted == pytest.approx(space / elements**2 + time / steps**2)
+    if predicted <= tol / SAFETY:
+        # Brute force over the same candidates: nothing that meets the target is cheaper.
+        best = min(_cost(e, s, 1.0) for e in _ELEMENTS for s in range(16, 1 << 16, 8)
+                   if space / e**2 + time / s**2 <= tol / SAFETY)
+        assert _cost(elements, steps, 1.0) == pytest.approx(best)
+    else:  # beyond the grid: the finest setting, its predicted error above the target
+        assert elements == _ELEMENTS[-1]
+
+
+def test_a_priori_term_raises_the_step_count():
+    loose = choose(0.1, 1.0, 1e-2, 1.0, 16, _no_a_priori)
+    strict = choose(0.1, 1.0, 1e-2, 1.0, 16,
+                    lambda s: np.where(s < 400, 1.0, 0.0))
+    assert strict[1] >= 400 > loose[1]
+
+
+@pytest.mark.parametrize("tolerance", [1e-2, 1e-3])
+def test_reference_four_bar_meets_the_tolerance(reference_four_bar_peak, tolerance):
+    raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+    raw.pop("modal")
+    raw["discretization"] = "auto"
+    raw["tolerance"] = tolerance
+    ds = simulate(raw)
+    choice = json.loads(str(ds.discretization_auto.values[0]))
+    assert choice["modes_per_link"] == MODES and choice["tolerance"] == tolerance
+    true = abs(float(ds.peak_stress.max()) - reference_four_bar_peak) / reference_four_bar_peak
+    assert true < tolerance
+    assert choice["predicted_error"] <= tolerance / SAFETY
+    # The per-case estimate agrees that the tolerance is met.
+    assert float(ds.error_estimate[0]) < tolerance
+    assert ds.discretization_auto.attrs["long_name"].startswith("discretization chosen")
+
+
+def test_scene_without_auto_reports_nothing():
+    raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+    raw.pop("modal")
+    raw["discretization"] = {"elements_per_link": 2}
+    raw["time"]["steps_per_revolution"] = 32
+    assert "discretization_auto" not in simulate(raw)
