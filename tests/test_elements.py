@@ -174,7 +174,9 @@ def test_recovery_curvature_on_and_between_nodes():
     """Uniform load q on a simply supported beam: exact v(s) = q s (L³ − 2Ls² + s³)/(24EI),
     v'' = q s (s − L)/(2EI). The element curvature is the L2 projection of that parabola on
     linears, so it is exact at the Gauss–Legendre points ξ = 1/2 ± √3/6 and off by
-    −qh²/(12EI) at both element ends (the projection of ξ² on {1, ξ} is ξ − 1/6)."""
+    −qh²/(12EI) at both element ends (the projection of ξ² on {1, ξ} is ξ − 1/6). Recovery
+    through the Gauss points (a quadratic through the nearest three) is therefore exact
+    everywhere, nodes and link ends included, where reading the element field is not."""
     q0, ne, lm = 1000.0, 8, build(eb, L0_, 8)
     EI, h = E * section(H0_)["second_moment"], L0_ / 8
     q = static(lm, dofs(lm, ("v", "t"), BENDING_BCS["pinned-pinned"]), lm.load((0.0, q0)))
@@ -184,19 +186,38 @@ def test_recovery_curvature_on_and_between_nodes():
     ops = eb.recovery_matrices(lm, xi)
     v_exact = q0 * s * (L0_**3 - 2 * L0_ * s**2 + s**3) / (24 * EI)
     np.testing.assert_allclose(ops["v"] @ q, v_exact, rtol=0, atol=1e-4 * v_exact.max())
+    scale = np.abs(kappa_exact(0.5 * L0_))
     nodes = np.arange(ne + 1) / ne
-    kappa_nodes = eb.recovery_matrices(lm, nodes)["curvature"] @ q
-    np.testing.assert_allclose(kappa_nodes, kappa_exact(nodes * L0_) - q0 * h**2 / (12 * EI),
-                               rtol=1e-9)
+    for where in (xi, nodes, np.linspace(0, 1, 37)):
+        np.testing.assert_allclose(eb.recovery_matrices(lm, where)["curvature"] @ q,
+                                   kappa_exact(where * L0_), rtol=0, atol=1e-9 * scale)
+    # The element field itself: exact at the Gauss points, −qh²/12EI at the nodes.
+    from ced.elements._common import recovery_operators
+    raw = recovery_operators(eb.shape_functions, lm, nodes, {"curvature": "kappa"})
+    np.testing.assert_allclose(raw["curvature"] @ q, kappa_exact(nodes * L0_)
+                               - q0 * h**2 / (12 * EI), rtol=1e-9)
     gauss = ((np.arange(ne)[:, None] + 0.5 + np.array([-1, 1]) * np.sqrt(3) / 6) / ne).ravel()
-    np.testing.assert_allclose(eb.recovery_matrices(lm, gauss)["curvature"] @ q,
-                               kappa_exact(gauss * L0_), rtol=1e-9)
-    # At an interior node the operator is the mean of the two one-sided operators.
-    left, mid, right = (eb.recovery_matrices(lm, [0.5 + d])["curvature"][0]
-                        for d in (-1e-9, 0.0, 1e-9))
-    scale = np.abs(mid).max()
-    np.testing.assert_allclose(mid, 0.5 * (left + right), atol=1e-6 * scale)
-    assert np.abs(left - right).max() > 0.1 * scale
+    raw = recovery_operators(eb.shape_functions, lm, gauss, {"curvature": "kappa"})
+    np.testing.assert_allclose(raw["curvature"] @ q, kappa_exact(gauss * L0_), rtol=1e-9)
+
+
+def test_recovered_curvature_converges_at_third_order():
+    """Cantilever under a linearly varying load (exact curvature cubic): the recovered
+    curvature at fixed stations converges as O(h³), smoothly (each halving divides the error
+    by about 8), where the element field alone converges erratically."""
+    L, EI, q1 = L0_, E * section(H0_)["second_moment"], 1000.0
+    xi = np.linspace(0, 1, 11)
+    # q(s) = q1 s/L on a cantilever clamped at 0: M(s) = q1 (L − s)² (2L + s)/(6L).
+    kappa_exact = q1 * (L - xi * L) ** 2 * (2 * L + xi * L) / (6 * L * EI)
+    errors = []
+    for ne in (4, 8, 16, 32):
+        lm = build(eb, L, ne)
+        f = lm.load((0.0, 0.0), (0.0, q1 / L))  # consistent load of q(s) = q1 s/L
+        q = static(lm, dofs(lm, ("v", "t"), BENDING_BCS["clamped-free"]), f)
+        kappa = eb.recovery_matrices(lm, xi)["curvature"] @ q
+        errors.append(np.abs(kappa - kappa_exact).max() / np.abs(kappa_exact).max())
+    rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert (rates > 2.7).all(), rates
 
 
 def test_rigid_recovery_and_dispatch():

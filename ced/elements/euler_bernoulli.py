@@ -88,10 +88,11 @@ def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     Returns
     -------
     dict of (..., st, n) arrays: ``u`` and ``v`` (m), ``rotation`` v' (rad), ``curvature`` v''
-    (1/m), ``axial_strain`` u'. The curvature and axial strain are discontinuous at nodes
-    (piecewise linear / constant); at an interior node the operator is the average of the two
-    adjacent elements' values, at the link ends it is the end element's value.
+    (1/m), ``axial_strain`` u'. The curvature and axial strain (piecewise linear / constant,
+    discontinuous at nodes) are recovered from their superconvergent Gauss points (quadratic /
+    linear through the nearest ones, :func:`ced.elements._common.superconvergent_rows`).
     """
     return recovery_operators(shape_functions, matrices, stations,
                               {"u": "u", "v": "v", "rotation": "dv", "curvature": "kappa",
-                               "axial_strain": "du"})
+                               "axial_strain": "du"},
+                              superconvergent={"curvature": (2, 2), "axial_strain": (1, 1)})

@@ -115,9 +115,10 @@ def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     -------
     dict of (..., st, n) arrays: ``u``, ``v`` (m), ``rotation`` θ (rad), ``curvature`` θ'
     (the bending strain per unit distance from the neutral axis, 1/m), ``axial_strain`` u',
-    ``shear_strain`` v' − θ. θ' is linear and discontinuous at nodes: averaged there as for
-    Euler–Bernoulli.
+    ``shear_strain`` v' − θ. θ' (linear, discontinuous at nodes) and u' are recovered from their
+    superconvergent points as for Euler–Bernoulli.
     """
     return recovery_operators(shape_functions, matrices, stations,
                               {"u": "u", "v": "v", "rotation": "theta", "curvature": "kappa",
-                               "axial_strain": "du", "shear_strain": "gamma"})
+                               "axial_strain": "du", "shear_strain": "gamma"},
+                              superconvergent={"curvature": (2, 2), "axial_strain": (1, 1)})
