@@ -7,20 +7,26 @@
 #
 # The profiles set replace-workflow-config: a --configfile study replaces config/config.yaml
 # instead of being merged into it (Snakemake merges nested keys by default).
-from snakemake.utils import validate
-
 from ced.study import case_config, check_config, modal_requested
 
 
 configfile: "config/config.yaml"
 
 
-validate(config, "workflow/schemas/config.schema.yaml")
-
-STUDY = config["study"]
+# The schema (workflow/schemas/config.schema.yaml, defaults filled in) and every check the
+# schema cannot express, with the estimated study size: bad input fails here, before any job.
 CHUNKS = check_config(config)
+STUDY = config["study"]
 FAMILIES = sorted(CHUNKS)
 CAMPBELL = modal_requested(config)
+# Convergence study (config key `convergence`, ced.convergence): one job per family of its sweep;
+# none, and no report section, without the key.
+CONVERGENCE = None
+if config.get("convergence"):
+    from ced.convergence import load_sweep
+
+    CONVERGENCE = load_sweep(config, root=workflow.basedir)
+CONVERGENCE_FAMILIES = list(CONVERGENCE["families"]) if CONVERGENCE else []
 
 
 report: "workflow/report/workflow.rst"
@@ -36,6 +42,7 @@ include: "workflow/rules/simulate.smk"
 include: "workflow/rules/reduce.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/ladder.smk"
+include: "workflow/rules/convergence.smk"
 
 
 localrules:
@@ -51,6 +58,11 @@ rule all:
             "results/{study}/figures/overview.{ext}", study=STUDY, ext=("png", "svg")
         ),
         expand("results/{study}/ladder/ladder.md", study=STUDY),
+        expand(
+            "results/{study}/tables/accuracy.{ext}",
+            study=STUDY if CONVERGENCE_FAMILIES else [],
+            ext=("md", "csv"),
+        ),
         expand(
             "results/{study}/figures/{kind}/{family}.{ext}",
             study=STUDY,

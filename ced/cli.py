@@ -1,4 +1,5 @@
-"""Command line: ``ced run SCENE.yaml -o OUT.nc``, ``ced classify --ground … --rocker …``.
+"""Command line: ``ced run SCENE.yaml -o OUT.nc``, ``ced check CONFIG.yaml``,
+``ced classify --ground … --rocker …``, ``ced ladder SCENE.yaml -o DIR``.
 
 Bad input exits with code 2 and a message naming the key path; nothing is written.
 """
@@ -26,6 +27,20 @@ def _run(args: argparse.Namespace) -> int:
         print(f"case {case}: {ds.family.values[case]} status={flags} "
               f"solve_time={float(ds.solve_time.values[case]):.3g} s")
     print(f"wrote {args.output}")
+    return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    from .study import load_config, study_estimate
+
+    estimate = study_estimate(load_config(args.config))
+    print(f"{args.config}: valid")
+    print(f"cases: {estimate.cases} ({estimate.grid_points} grid points before the assembly "
+          f"check and family filter)")
+    print(f"chunk jobs: {sum(estimate.chunks.values())} ("
+          + ", ".join(f"{f} {n}" for f, n in estimate.chunks.items()) + ")")
+    print(f"estimated output: {estimate.output_bytes / 1e9:.3g} GB uncompressed")
+    print(f"estimated peak memory per chunk job: {estimate.chunk_memory_bytes / 1e9:.3g} GB")
     return 0
 
 
@@ -65,6 +80,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("scenes", nargs="+", help="scene YAML file(s)")
     run.add_argument("-o", "--output", required=True, help="output netCDF file")
     run.set_defaults(func=_run)
+    chk = sub.add_parser("check", help="validate a study config and estimate its size")
+    chk.add_argument("config", help="study config YAML (as given to snakemake --configfile)")
+    chk.set_defaults(func=_check)
     cls = sub.add_parser("classify", help="Grashof family and input limits of a four-bar")
     for name in ("ground", "crank", "coupler", "rocker"):
         cls.add_argument(f"--{name}", type=float, required=True, help=f"{name} length, m")

@@ -37,3 +37,12 @@ def test_console_script_classify():
     result = subprocess.run([str(exe), "classify", "--ground", "1", "--crank", "3",
                              "--coupler", "2", "--rocker", "2"], capture_output=True, text=True)
     assert result.returncode == 0 and result.stdout.startswith("change_point")
+
+
+def test_check_prints_the_study_size(capsys):
+    assert main(["check", str(ROOT / "config/config.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "cases: 11536 (12176 grid points" in out
+    assert "chunk jobs: 27 (" in out
+    assert "estimated output: 0.661 GB uncompressed" in out
+    assert "estimated peak memory per chunk job: " in out

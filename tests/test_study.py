@@ -12,6 +12,7 @@ from ced.errors import SceneError
 from ced.mechanism import FAMILIES, assembly_error, classify
 from ced.study import (
     CASE_KEYS,
+    case_bytes,
     case_config,
     case_table,
     check_config,
@@ -19,8 +20,11 @@ from ced.study import (
     chunk_scenes,
     chunks,
     family_sizes,
+    grid_points,
     grid_values,
+    study_estimate,
     study_size,
+    validate_config,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -237,3 +241,39 @@ def test_check_config_names_the_bad_scene_key(small):
     with pytest.raises(SceneError) as err:
         check_config(bad)
     assert "time.start" in str(err.value)
+
+
+# ------------------------------------------------------------------------------ validation
+@pytest.mark.parametrize("path", CONFIGS, ids=lambda p: p.name)
+def test_validate_config_accepts_every_config_and_fills_the_schema_defaults(path):
+    raw = yaml.safe_load(path.read_text())
+    assert validate_config(raw) == load(path)  # same defaults as snakemake's validate
+
+
+@pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
+def test_case_bytes_is_the_size_of_a_chunk_dataset(small, family, tmp_path):
+    from ced.scene import load_scene
+    from ced.simulation import simulate
+
+    rows = chunk_rows(small, family, 0)
+    ds = simulate([r["scene"] for r in rows])
+    per_case = sum(v.nbytes for v in ds.variables.values() if "case" in v.dims) / len(rows)
+    estimate = case_bytes(load_scene(rows[0]["scene"]))
+    assert estimate == pytest.approx(per_case, rel=0.1)
+
+
+def test_grid_points_counts_without_building_the_grid(small):
+    huge = copy.deepcopy(small)
+    huge["grids"]["four_bar"]["crank"] = {"start": 0.01, "stop": 0.5, "num": 10**12}
+    # 10¹² × 1 × 2 crank-coupler-rocker points + 1 slider-crank, × 2 speeds × 2 materials
+    assert grid_points(huge) == (2 * 10**12 + 1) * 2 * 2
+    assert study_size(huge) == grid_points(huge)
+
+
+def test_study_estimate_of_the_default_study(default):
+    estimate = study_estimate(default)
+    assert estimate.cases == sum(family_sizes(default).values()) == 11536
+    assert estimate.chunks == chunks(default)
+    assert estimate.largest_chunk == default["chunk_size"]
+    assert 0.3e9 < estimate.output_bytes < 1e9  # 11536 cases × 65 steps × … ≈ 0.66 GB
+    assert estimate.chunk_memory_bytes < 2000 * 2**20  # fits simulate_chunk's mem_mb
