@@ -208,7 +208,8 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """Write ``ds`` to ``path`` atomically (temporary file in the same directory, then rename).
 
     Overwriting an open file in place can truncate it (xarray #10679); a reader either sees the
-    old file or the complete new one, and a write killed half way leaves only a temp file.
+    old file or the complete new one, and a write killed half way leaves only a temp file,
+    which the next successful write of the same path removes.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -225,4 +226,8 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    # A write killed earlier (SIGKILL, node failure) left its temp file; the complete file now
+    # exists, so those leftovers are garbage. One job writes a given output, so none is live.
+    for stale in path.parent.glob(f".{path.name}.*.tmp"):
+        stale.unlink(missing_ok=True)
     return path

@@ -136,10 +136,11 @@ def test_write_killed_half_way_leaves_no_partial_file(tmp_path, previous):
     else:  # the old file is intact
         with xr.open_dataset(final, engine="netcdf4") as ds:
             assert float(ds.x.max()) == float(ds.x.min()) == previous
-    # A rerun writes the complete file under the final name.
+    # A rerun writes the complete file under the final name and removes the leftovers.
     io.write_dataset(small_dataset(2.0), final)
     with xr.open_dataset(final, engine="netcdf4") as ds:
         assert ds.x.values.tolist() == small_dataset(2.0).x.values.tolist()
+    assert list(tmp_path.iterdir()) == [final]
 
 
 def test_write_that_raises_removes_its_temporary_file(tmp_path, monkeypatch):
