@@ -3,26 +3,29 @@
 The estimate is relative, on the case's peak stress (the largest peak over its links). It
 comes from one coarser companion solution and the known convergence orders:
 
-* **Space.** Nodal stresses of cubic Hermite beams (Euler–Bernoulli, Timoshenko) converge as
-  O(h²) in the element length; the Q8 plane-stress mesh as well; ``seed_lame``'s quintic
-  elements faster (module docstrings). Order 2 is taken for all, which is conservative for
-  the faster ones.
+* **Space.** The beams' strains are recovered from their superconvergent points, so peak
+  stress converges as O(h³) in the element length (Euler–Bernoulli, Timoshenko); the Q8
+  plane-stress and the ``seed_lame`` strains are read at the stations, order 2 is taken.
 * **Time.** Every integrator is second order (Newmark, HHT, generalized-α, Houbolt); the peak
   between samples is interpolated (:func:`ced.recovery.peaks`), so it converges smoothly.
 
-Halving both the elements and the steps scales both error parts by 4, so a fine solution σ and
-its companion σ_c give Richardson's asymptotic error |σ − σ_c|/3 whatever the signs of the
-parts — no cancellation between space and time can hide in it. The estimate is three times
-that, |σ − σ_c|/σ: a safety factor of 3 that keeps it an upper bound when the asymptotic
-constants are only approached. Where halving is impossible (fewer than 4 elements or 16 steps)
-the missing direction is refined instead, in a separate companion.
+The companion halves the steps and coarsens the mesh so that both error parts grow about
+fourfold; then a fine solution σ and its companion σ_c give Richardson's asymptotic error
+|σ − σ_c|/3 whatever the signs of the parts. The estimate is three times that, |σ − σ_c|/σ:
+a safety factor of 3 that keeps it an upper bound when the asymptotic constants are only
+approached. Where coarsening is impossible (one element, fewer than 16 steps) the missing
+direction is refined instead, in a separate companion.
 
 Richardson's argument needs the asymptotic range in time, which a strongly dissipative
-scheme (Houbolt) reaches only when the first natural period spans many steps. A second,
-a-priori term covers that: the integrator's relative frequency error plus its algorithmic
-damping ratio at ω₁h (from the exact 1-DOF amplification matrix), doubled (the sensitivity of
-a sub-resonant response to its natural frequency) and weighted by the dynamic share of the
-response, 1 − 1/amplification. The estimate is the larger of the two terms.
+scheme (Houbolt) reaches only when the first natural period spans many steps: with fewer, its
+algorithmic damping flattens the response of the fine solution and of the companion alike, and
+their difference misleads. Where the scheme's damping ratio at ω₁h exceeds :data:`DAMPED`, an
+a-priori term is added from the exact 1-DOF behaviour of the scheme: its relative frequency
+error plus its damping ratio at ω₁h, doubled (the sensitivity of a sub-resonant response to
+its natural frequency), weighted by the dynamic share of the response, 1 − 1/amplification
+(:func:`time_resolution_error`). It is not used for the non-dissipative schemes: a stiff mode
+driven far below its frequency responds quasi-statically, correctly, however coarse ω₁h is,
+and the term would only overstate. The estimate is the larger of the two terms.
 
 Not estimated: the modal truncation of ``modes_per_link`` (with static load vectors it is
 below 1e-5 on the reference four-bar even with one mode per link), and model error (beam vs
@@ -38,75 +41,156 @@ import numpy as np
 
 from .integrators import amplification_matrix, make_integrator
 
-__all__ = ["Companion", "companions", "combine", "time_resolution_error",
-           "ORDER", "SAFETY"]
+__all__ = ["Companion", "companions", "coarsening_allowed", "MIN_COMPANION_STEPS", "combine", "time_resolution_error", "algorithmic_damping",
+           "DAMPED",
 
-#: Convergence order of peak stress, in element length and in time step.
-ORDER = 2
+           "SPACE_ORDER", "TIME_ORDER", "SAFETY"]
+
+#: Convergence order of peak stress in the element length, per formulation: the beams' strains
+#: are read at their superconvergent points (O(h³), ced.elements._common.superconvergent_rows);
+#: the plane-stress and seed_lame strains at the stations (order 2 taken, conservative for the
+#: quintic seed_lame elements).
+SPACE_ORDER = {"euler_bernoulli": 3, "timoshenko": 3, "plane_stress": 2, "seed_lame": 2}
+#: Convergence order in the time step (every integrator of ced.integrators).
+TIME_ORDER = 2
 #: Factor between the estimate and Richardson's asymptotic error estimate.
 SAFETY = 3.0
+#: Algorithmic damping ratio at ω₁h above which the a-priori term is added.
+DAMPED = 0.01
 
 
 class Companion(NamedTuple):
     """A companion discretization of a scene and the factor turning |σ − σ_c|/σ into the
-    estimate's share (SAFETY / |r^p − 1| for refinement ratio r, p = ORDER)."""
+    estimate's share."""
 
     scene: dict
     factor: float
 
 
-def _factor(ratio: float) -> float:
-    """SAFETY × Richardson's 1/(r^p − 1), referred to the fine (scene's own) solution.
+def _factor(growth: float) -> float:
+    """SAFETY × Richardson's factor, referred to the scene's own solution.
 
-    ``ratio`` = fine step / companion step: < 1 for a coarser companion (the fine error is
-    |Δ|/(r^p − 1) with r = 1/ratio), > 1 for a finer one (the fine error is
-    |Δ| r^p/(r^p − 1), with r = ratio).
+    ``growth`` is the companion's error over the scene's error, (step ratio)^order: > 1 for
+    a coarser companion (the scene's error is |Δ|/(G − 1)), < 1 for a finer one (the scene's
+    error is |Δ|/(1 − G)).
     """
-    if ratio < 1.0:
-        r = 1.0 / ratio
-        return SAFETY / (r**ORDER - 1.0)
-    return SAFETY * ratio**ORDER / (ratio**ORDER - 1.0)
+    return SAFETY / abs(growth - 1.0)
 
 
-def companions(scene: dict) -> list[Companion]:
+def _elements_for_growth(ne: int, order: int, growth: float) -> int | None:
+    """The element count n ≠ ne whose error growth (ne/n)^order is nearest ``growth`` (> 1:
+    coarser, < 1: finer), so that space and time errors grow alike; None if only one element
+    per link would do (far from the asymptotic range: a single cubic per link)."""
+    candidates = np.arange(1, ne) if growth > 1 else np.arange(ne + 1, 8 * ne + 2)
+    if not len(candidates):
+        return None
+    best = int(candidates[np.argmin(np.abs(np.log((ne / candidates) ** order / growth)))])
+    return best if best >= 2 else None
+
+
+#: Fewest steps per revolution of a coarser companion: below, the crank harmonics that carry
+#: the load (up to about the 8th) are not in the asymptotic range (measured on the reference
+#: scenes: the error ratio between 32 and 64 steps is 2, not 4).
+MIN_COMPANION_STEPS = 64
+#: Largest ω₁h of a coarser companion whose first mode is resolved; between this and π the
+#: mode is neither resolved nor quasi-static, and halving the step leaves the asymptotic range.
+MAX_COMPANION_OMEGA_H = 1.0
+
+
+def coarsening_allowed(steps: int, omega1_h: float) -> bool:
+    """Whether a companion with half of ``steps`` per revolution stays in the asymptotic range.
+
+    Parameters
+    ----------
+    steps : int
+        The scene's steps per revolution.
+    omega1_h : float
+        First natural frequency × the scene's step, rad per step (0 if unknown).
+    """
+    if steps // 2 < MIN_COMPANION_STEPS:
+        return False
+    # A mode beyond π per step is quasi-static at both step sizes; otherwise it must stay
+    # resolved at the doubled step.
+    return omega1_h >= math.pi or 2.0 * omega1_h <= MAX_COMPANION_OMEGA_H
+
+
+def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
     """Companion discretizations of a normalized scene with an elastic formulation.
 
-    One companion with both elements and steps halved where both can be halved; otherwise one
-    per direction (the one that cannot be halved is doubled). Modes per link are kept (the
-    companion's count is clipped to what its coarser mesh has).
+    Normally one coarser companion: steps halved, elements reduced so that the space error
+    grows about as much as the time error (4×). Then the difference to the companion is about
+    three times the scene's own error whatever the signs of the two parts, and no cancellation
+    between them can hide in it; the smaller of the two growths sets Richardson's factor,
+    which keeps the estimate conservative when they differ. Where halving the step would leave
+    the asymptotic range (:func:`coarsening_allowed`), two companions instead: the mesh
+    coarsened at the scene's steps, and the steps doubled on the scene's mesh (about three
+    times the cost of the scene's own solution); their two estimates are added. Modes per link
+    are kept; the companions make no modal analysis.
 
     Parameters
     ----------
     scene : dict
         Normalized scene (:func:`ced.scene.load_scene`) with ``discretization`` a dict.
+    omega1_h : float
+        First natural frequency × step, rad per step (0 if unknown).
 
     Returns
     -------
-    list of Companion
+    list of Companion (their terms add up)
     """
     disc, time = scene["discretization"], scene["time"]
     ne, spr = disc["elements_per_link"], time["steps_per_revolution"]
-    coarse_ne = ne // 2 if ne >= 4 else None
-    coarse_spr = spr // 2 if spr >= 16 and (spr // 2) * time["revolutions"] % 1 == 0 else None
+    order = SPACE_ORDER.get(disc["formulation"], 2)
     every = scene["outputs"]["every"]
 
     def variant(n_el: int, steps: int) -> dict:
         out = copy.deepcopy(scene)
         out["discretization"]["elements_per_link"] = n_el
         out["time"]["steps_per_revolution"] = steps
-        # Keep the output instants when possible: a step twice as long, half as many per output.
-        out["outputs"]["every"] = max(1, every * steps // spr)
+        # Output (and peak sampling) at least as dense in time as the scene's: the same
+        # instants when coarser, every step's worth of the scene's sampling when finer.
+        out["outputs"]["every"] = max(1, every * steps // spr) if steps < spr else every
         out["modal"] = None  # only the peak stress is compared
         out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
         return out
 
-    if coarse_ne is not None and coarse_spr is not None:
-        ratio = max(coarse_ne / ne, coarse_spr / spr)  # the smaller refinement ratio governs
-        return [Companion(variant(coarse_ne, coarse_spr), _factor(ratio))]
-    space_ne = coarse_ne if coarse_ne is not None else 2 * ne
-    time_spr = coarse_spr if coarse_spr is not None else 2 * spr
-    return [Companion(variant(space_ne, spr), _factor(space_ne / ne)),
-            Companion(variant(ne, time_spr), _factor(time_spr / spr))]
+    halve = coarsening_allowed(spr, omega1_h) and (spr // 2) * time["revolutions"] % 1 == 0
+    coarse = _elements_for_growth(ne, order, 4.0)
+    if halve and coarse is not None:
+        growth = min((ne / coarse) ** order, 4.0)
+        return [Companion(variant(coarse, spr // 2), _factor(growth))]
+    # Separately: the mesh coarsened (or refined, rather than down to one element) at the
+    # scene's steps, and the steps halved (or doubled) on the scene's mesh. Each part is estimated on its own and the parts
+    # are added, so they cannot cancel in the estimate.
+    space = coarse if coarse is not None else 2 * ne
+    steps = spr // 2 if halve else 2 * spr
+    return [Companion(variant(space, spr), _factor((ne / space) ** order)),
+            Companion(variant(ne, steps), _factor((spr / steps) ** TIME_ORDER))]
+
+
+def _dispersion(time_cfg: dict, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative frequency error |ω̄/ω − 1| and algorithmic damping ratio ξ̄ of the scheme's
+    principal root at ω h = W (1 and 1 where the scheme has no oscillatory root)."""
+    from .ked import _scheme_params  # the scene → integrator parameters map lives there
+
+    scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
+    roots = np.linalg.eigvals(amplification_matrix(scheme, W))
+    # The principal root is the complex one whose phase per step is nearest ωh; spurious roots
+    # are real (possibly negative, phase π). Without a complex root the mode is overdamped by
+    # the scheme: its response is lost.
+    oscillatory = roots.imag > 1e-12 * np.abs(roots)
+    distance = np.where(oscillatory, np.abs(np.angle(roots) - W[..., None]), np.inf)
+    principal = np.take_along_axis(roots, distance.argmin(axis=-1)[..., None], -1)[..., 0]
+    advance = np.where(oscillatory.any(axis=-1), np.abs(np.angle(principal)), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frequency_error = np.where(advance > 0, np.abs(advance / W - 1.0), 1.0)
+        damping = np.where(advance > 0, -np.log(np.abs(principal)) / advance, 1.0)
+    return frequency_error, damping
+
+
+def algorithmic_damping(time_cfg: dict, omega_h: np.ndarray) -> np.ndarray:
+    """The scheme's algorithmic damping ratio at ω h (dimensionless)."""
+    return _dispersion(time_cfg, np.clip(np.asarray(omega_h, float), 1e-6, None))[1]
 
 
 def time_resolution_error(time_cfg: dict, omega_h: np.ndarray, dynamic_share: np.ndarray
@@ -128,21 +212,8 @@ def time_resolution_error(time_cfg: dict, omega_h: np.ndarray, dynamic_share: np
         2 × share × (|ω̄/ω − 1| + ξ̄), with ω̄h the phase advance per step and ξ̄ the
         algorithmic damping ratio of the scheme's principal root.
     """
-    from .ked import _scheme_params  # the scene → integrator parameters map lives there
-
-    scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
     W = np.clip(np.asarray(omega_h, float), 1e-6, None)
-    roots = np.linalg.eigvals(amplification_matrix(scheme, W))
-    # The principal root is the complex one whose phase per step is nearest ωh; spurious roots
-    # are real (possibly negative, phase π). Without a complex root the mode is overdamped by
-    # the scheme: its response is lost.
-    oscillatory = roots.imag > 1e-12 * np.abs(roots)
-    distance = np.where(oscillatory, np.abs(np.angle(roots) - W[..., None]), np.inf)
-    principal = np.take_along_axis(roots, distance.argmin(axis=-1)[..., None], -1)[..., 0]
-    advance = np.where(oscillatory.any(axis=-1), np.abs(np.angle(principal)), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frequency_error = np.where(advance > 0, np.abs(advance / W - 1.0), 1.0)
-        damping = np.where(advance > 0, -np.log(np.abs(principal)) / advance, 1.0)
+    frequency_error, damping = _dispersion(time_cfg, W)
     unresolved = W >= math.pi  # beyond Nyquist the mode is not represented at all
     error = 2.0 * np.clip(dynamic_share, 0.0, 1.0) * (frequency_error + np.abs(damping))
     return np.where(unresolved, np.clip(dynamic_share, 0.0, 1.0), error)

@@ -8,16 +8,16 @@ case in four batched stages:
    ω₁h ≤ 1/2, and the crank harmonics up to :data:`HARMONICS` (16 steps per period of the
    highest), and is at least :data:`MIN_STEPS`.
 2. **Pilots.** Three cheap solutions, (n, s), (2n, s) and (n, 2s) with n = :data:`PILOT_ELEMENTS`,
-   give the constants of the two error terms by Richardson extrapolation at order 2 (the
-   orders of ``ced.accuracy``): e(n_e, s_r) ≈ C_x/n_e² + C_t/s_r².
+   give the constants of the two error terms by Richardson extrapolation at the orders of
+   ``ced.accuracy`` (3 in space, 2 in time): e(n_e, s_r) ≈ C_x/n_e³ + C_t/s_r².
 3. **Cost model.** The model is always Euler–Bernoulli reduced to :data:`MODES` fixed-interface
    modes per flexible link plus static load vectors (component-mode synthesis), whose truncation
    error is below 1e-5 on the reference four-bar and whose per-step cost does not grow with the
    mesh. Measured on one core (benchmarks): a step costs about 35 µs per case and the reduction
    of one link about 70 ms × (n_e/128)³, so cost ∝ s_r·revolutions + 2000 (n_e/128)³ steps.
 4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e up to 256, s_r in multiples of 8) with
-   C_x/n_e² + C_t/s_r² ≤ tolerance / :data:`SAFETY` and the integrator's a-priori dispersion
-   term (``ced.accuracy.time_resolution_error``) below a third of the tolerance.
+   C_x/n_e³ + C_t/s_r² ≤ tolerance / :data:`SAFETY` and, for a scheme that damps the first
+   mode, the a-priori dispersion term of ``ced.accuracy`` below a third of the tolerance.
 
 The choice, the pilot constants and the predicted error are recorded per case in the variable
 ``discretization_auto`` (JSON).
@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .accuracy import time_resolution_error
+from .accuracy import DAMPED, SPACE_ORDER, TIME_ORDER, algorithmic_damping, time_resolution_error
 
 __all__ = ["resolve_discretization", "MODES", "PILOT_ELEMENTS", "SAFETY"]
 
@@ -42,10 +42,12 @@ MIN_STEPS, MAX_STEPS = 16, 1 << 16
 #: Highest crank harmonic resolved a priori (16 steps per its period).
 HARMONICS = 4
 #: Predicted error must be below tolerance / SAFETY, so that the per-case error_estimate
-#: (three times Richardson's, ced.accuracy) also comes out below the tolerance.
-SAFETY = 3.0
+#: (three times Richardson's, ced.accuracy) also comes out below the tolerance, with a margin
+#: for the pilot constants.
+SAFETY = 4.0
 #: Cost of reducing one link of 128 elements, in time steps (measured, see module docstring).
 REDUCTION_COST = 2000.0
+_P_SPACE = SPACE_ORDER["euler_bernoulli"]
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
 
@@ -77,7 +79,8 @@ def choose(space: float, time: float, tolerance: float, revolutions: float,
     Parameters
     ----------
     space, time : float
-        Error constants C_x and C_t: e ≈ C_x/n_e² + C_t/s_r² (relative).
+        Error constants C_x and C_t: e ≈ C_x/n_e^p + C_t/s_r² (relative), p = the
+        Euler–Bernoulli order of ``ced.accuracy.SPACE_ORDER``.
     tolerance : float
         Target relative error on peak stress.
     revolutions : float
@@ -96,7 +99,7 @@ def choose(space: float, time: float, tolerance: float, revolutions: float,
     if not len(steps):
         steps = np.array([MAX_STEPS])
     ne, sr = np.meshgrid(_ELEMENTS, steps, indexing="ij")
-    predicted = space / ne**2 + time / sr**2
+    predicted = space / ne**_P_SPACE + time / sr**TIME_ORDER
     cost = np.where(predicted <= tolerance / SAFETY, _cost(ne, sr, revolutions), np.inf)
     if not np.isfinite(cost).any():  # beyond the grid: the finest setting, flagged by its error
         return int(_ELEMENTS[-1]), int(steps[-1]), float(predicted[-1, -1])
@@ -144,15 +147,19 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
     for j, i in enumerate(auto):
         scene, s0 = scenes[i], steps0[j]
         sigma = abs(peak[j]) if peak[j] else 1.0
-        # Richardson at order 2: the coarse error is 4/3 of the difference to the refined one.
-        space = 4.0 / 3.0 * abs(peak_x[j] - peak[j]) / sigma * n**2
-        time = 4.0 / 3.0 * abs(peak_t[j] - peak[j]) / sigma * s0**2
+        # Richardson: at order p the coarse error is 2^p/(2^p − 1) of the difference to the
+        # refined one.
+        gs, gt = 2.0**_P_SPACE, 2.0**TIME_ORDER
+        space = gs / (gs - 1.0) * abs(peak_x[j] - peak[j]) / sigma * n**_P_SPACE
+        time = gt / (gt - 1.0) * abs(peak_t[j] - peak[j]) / sigma * s0**TIME_ORDER
         speed = scene["drive"]["speed"]
         w1 = float(omega1[j])
 
         def a_priori(steps, scene=scene, speed=speed, w1=w1, share=float(share[j])):
-            h = 2.0 * math.pi / (speed * steps)
-            return time_resolution_error(scene["time"], w1 * h, np.full(len(steps), share))
+            # The same a-priori term as the error estimate: only where the scheme damps ω₁.
+            wh = w1 * 2.0 * math.pi / (speed * steps)
+            error = time_resolution_error(scene["time"], wh, np.full(len(steps), share))
+            return np.where(algorithmic_damping(scene["time"], wh) > DAMPED, error, 0.0)
 
         elements, steps, predicted = choose(space, time, scene["tolerance"],
                                             scene["time"]["revolutions"], s0 // 2, a_priori)

@@ -512,3 +512,4 @@ def spectral_radius(integrator: Integrator, omega_h: float | np.ndarray,
     """Largest eigenvalue modulus of :func:`amplification_matrix` (dimensionless)."""
     # Accurate up to ωh ~ 1e6 without balancing: the entries stay O(1) there.
     return np.abs(np.linalg.eigvals(amplification_matrix(integrator, omega_h, xi))).max(axis=-1)
+

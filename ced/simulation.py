@@ -142,10 +142,28 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
     return np.concatenate(parts)[order]
 
 
+def _a_priori_time_error(scenes: list[dict], omega1_h: np.ndarray,
+                         amplification: np.ndarray) -> np.ndarray:
+    """The integrator's a-priori error at ω₁ (:func:`ced.accuracy.time_resolution_error`), per
+    case, where the scheme damps the first mode noticeably (algorithmic damping ratio above
+    :data:`ced.accuracy.DAMPED` at ω₁h): there the response converges to its limit only once
+    the damping is gone, late, and a companion solution can mislead (Houbolt below ~20 steps
+    per natural period). Elsewhere the companion alone is used."""
+    from .accuracy import DAMPED, algorithmic_damping, time_resolution_error
+
+    share = _dynamic_share(amplification)
+    out = np.zeros(len(scenes))
+    for i, scene in enumerate(scenes):
+        w = np.array([omega1_h[i]])
+        if algorithmic_damping(scene["time"], w)[0] > DAMPED:
+            out[i] = time_resolution_error(scene["time"], w, share[i:i + 1])[0]
+    return out
+
+
 def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
                     order: np.ndarray) -> np.ndarray:
     """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`)."""
-    from .accuracy import combine, companions, time_resolution_error
+    from .accuracy import combine, companions
 
     wanted = [i for i, s in enumerate(scenes) if s["outputs"]["error_estimate"]
               and isinstance(s["discretization"], dict)
@@ -153,7 +171,15 @@ def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
     estimate = np.full(len(scenes), np.nan)
     if not wanted:
         return estimate
-    plans = {i: companions(scenes[i]) for i in wanted}
+    dynamic = [i for i in wanted if "elastic_inertia" in scenes[i]["effects"]]
+    omega1_h = np.zeros(len(scenes))
+    if dynamic:
+        omega1 = _first_frequency(solved, data, order)
+        for i in dynamic:
+            step = 2.0 * np.pi / (scenes[i]["drive"]["speed"]
+                                  * scenes[i]["time"]["steps_per_revolution"])
+            omega1_h[i] = omega1[i] * step
+    plans = {i: companions(scenes[i], float(omega1_h[i])) for i in wanted}
     slots = max(len(p) for p in plans.values())
     peak = _case_peak(data["peak_stress"])
     terms = np.zeros(len(scenes))
@@ -171,16 +197,10 @@ def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
         factor = np.array([plans[i][slot].factor for i in cases])
         terms[cases] += combine(peak[cases], [companion_peak], [1.0]) * factor
     estimate[wanted] = terms[wanted]
-    dynamic = [i for i in wanted if "elastic_inertia" in scenes[i]["effects"]]
     if dynamic:
-        omega = _first_frequency(solved, data, order)[dynamic]
-        h = np.array([2.0 * np.pi / (scenes[i]["drive"]["speed"]
-                                     * scenes[i]["time"]["steps_per_revolution"])
-                      for i in dynamic])
-        share = _dynamic_share(data["dynamic_amplification"][dynamic])
-        for i, w, s in zip(dynamic, omega * h, share):
-            a_priori = time_resolution_error(scenes[i]["time"], np.array([w]), np.array([s]))
-            estimate[i] = np.fmax(estimate[i], a_priori[0])
+        estimate[dynamic] = np.fmax(estimate[dynamic], _a_priori_time_error(
+            [scenes[i] for i in dynamic], omega1_h[dynamic],
+            data["dynamic_amplification"][dynamic]))
     failed = (data["status"] & io.STATUS_FLAGS["failed"]) > 0
     estimate[failed] = np.nan
     return estimate

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.accuracy import combine, companions, time_resolution_error
+from ced.accuracy import coarsening_allowed, combine, companions, time_resolution_error
 from ced.scene import load_scene
 from ced.simulation import simulate
 
@@ -18,28 +18,40 @@ def _scene(ne: int, spr: int, **time) -> dict:
     return raw
 
 
-def test_one_companion_halves_both_directions():
-    (companion,) = companions(load_scene(_scene(8, 64)))
-    assert companion.scene["discretization"]["elements_per_link"] == 4
-    assert companion.scene["time"]["steps_per_revolution"] == 32
-    # r = 2, p = 2: Richardson's error is |Δ|/3, the estimate three times that.
+def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
+    (companion,) = companions(load_scene(_scene(8, 256)), omega1_h=0.2)
+    # Order 3 in space: 8 → 5 elements grows the error (8/5)³ = 4.1×, like halving the step.
+    assert companion.scene["discretization"]["elements_per_link"] == 5
+    assert companion.scene["time"]["steps_per_revolution"] == 128
+    assert companion.scene["modal"] is None
+    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate three times that.
     assert companion.factor == pytest.approx(1.0)
 
 
-def test_direction_that_cannot_be_halved_is_refined_separately():
-    space, time = companions(load_scene(_scene(2, 8)))
-    assert space.scene["discretization"]["elements_per_link"] == 4
-    assert space.scene["time"]["steps_per_revolution"] == 8
-    assert space.factor == pytest.approx(3.0 * 4.0 / 3.0)
-    assert time.scene["discretization"]["elements_per_link"] == 2
-    assert time.scene["time"]["steps_per_revolution"] == 16
+@pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.6), (256, 1.5)])
+def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omega1_h):
+    # Fewer than 64 steps in the companion, or ω₁h above 1 there while below π here.
+    assert not coarsening_allowed(steps, omega1_h)
+    space, time = companions(load_scene(_scene(8, steps)), omega1_h)
+    assert space.scene["discretization"]["elements_per_link"] == 5
+    assert space.scene["time"]["steps_per_revolution"] == steps
+    assert time.scene["discretization"]["elements_per_link"] == 8
+    assert time.scene["time"]["steps_per_revolution"] == 2 * steps
+    assert time.factor == pytest.approx(3.0 / (1.0 - 1.0 / 4.0))
 
 
-def test_companion_keeps_output_instants():
-    raw = _scene(8, 64)
-    raw["outputs"] = {"every": 4}
-    (companion,) = companions(load_scene(raw))
-    assert companion.scene["outputs"]["every"] == 2
+def test_stiff_first_mode_allows_halving():
+    # ω₁h ≥ π at both step sizes: the mode responds quasi-statically either way.
+    assert coarsening_allowed(256, 3.5)
+    assert coarsening_allowed(256, 0.4) and not coarsening_allowed(256, 0.6)
+
+
+def test_one_element_per_link_is_refined_not_coarsened():
+    space, time = companions(load_scene(_scene(2, 256)), omega1_h=0.2)
+    assert space.scene["discretization"]["elements_per_link"] == 4  # 2 → 1 would be too coarse
+    assert space.factor == pytest.approx(3.0 / (1.0 - 1.0 / 8.0))
+    assert time.scene["time"]["steps_per_revolution"] == 128
+    assert time.factor == pytest.approx(1.0)
 
 
 def test_a_priori_time_term_is_second_order_and_vanishes_without_vibration():

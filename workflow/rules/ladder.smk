@@ -9,6 +9,7 @@ rule fidelity_ladder:
             "results/{study}/ladder/ladder.png",
             caption="../report/ladder.rst",
             category="What accuracy costs in time",
+            labels={"figure": "fidelity ladder", "format": "PNG"},
         ),
         svg="results/{study}/ladder/ladder.svg",
     log:
