@@ -25,12 +25,14 @@ import itertools
 import json
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
-import xarray as xr
 import yaml
 
-from .simulation import simulate
+if TYPE_CHECKING:  # pandas, xarray and the solver load lazily: the Snakefile imports this module
+    import pandas as pd
+    import xarray as xr
 
 __all__ = ["load_sweep", "settings", "run_family", "accuracy_table", "estimate_validation",
            "TARGETS"]
@@ -115,6 +117,8 @@ def _label(setting: dict) -> str:
 
 def _measure(scenes: list[dict]) -> dict[str, np.ndarray]:
     """Peak stress, deflection, first frequency, estimate and time per case of one batch."""
+    from .simulation import simulate
+
     ds = simulate(scenes)
     out = {
         "peak_stress": ds.peak_stress.max("link").values,
@@ -154,7 +158,7 @@ def _reference(sweep: dict, family: str, formulation: str) -> dict[str, tuple[fl
     return out
 
 
-def run_family(sweep: dict, family: str) -> xr.Dataset:
+def run_family(sweep: dict, family: str) -> "xr.Dataset":
     """Solve the sweep on one family's reference scene; see the module docstring.
 
     Returns
@@ -163,6 +167,9 @@ def run_family(sweep: dict, family: str) -> xr.Dataset:
         Dimension ``setting`` (the sweep) and ``tolerance`` (the auto-discretization check);
         errors are relative and dimensionless, ``solve_time`` in s per case.
     """
+    import pandas as pd
+    import xarray as xr
+
     batch = int(sweep.get("batch", 4))
     table = settings(sweep)
     references = {f: _reference(sweep, family, f) for f in sorted({s["formulation"]
@@ -209,9 +216,11 @@ def run_family(sweep: dict, family: str) -> xr.Dataset:
     return ds
 
 
-def _auto_check(sweep: dict, family: str, frame: pd.DataFrame, ref: dict,
-                batch: int) -> xr.Dataset:
+def _auto_check(sweep: dict, family: str, frame: "pd.DataFrame", ref: dict,
+                batch: int) -> "xr.Dataset":
     """``discretization: auto`` at each tolerance against the cheapest sweep setting."""
+    import xarray as xr
+
     tolerances = [float(t) for t in sweep["tolerances"]]
     out = {k: [] for k in ("auto_elements_per_link", "auto_steps_per_revolution", "auto_error",
                            "auto_error_estimate", "auto_solve_time", "cheapest_solve_time",
@@ -251,8 +260,10 @@ def _auto_check(sweep: dict, family: str, frame: pd.DataFrame, ref: dict,
     return ds
 
 
-def accuracy_table(datasets: dict[str, xr.Dataset]) -> pd.DataFrame:
+def accuracy_table(datasets: dict[str, "xr.Dataset"]) -> "pd.DataFrame":
     """For each family and target, the cheapest setting whose peak-stress error meets it."""
+    import pandas as pd
+
     rows = []
     for family, ds in datasets.items():
         frame = ds[["error_peak_stress", "solve_time"]].to_dataframe()
@@ -272,7 +283,7 @@ def accuracy_table(datasets: dict[str, xr.Dataset]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def estimate_validation(datasets: dict[str, xr.Dataset]) -> dict[str, float]:
+def estimate_validation(datasets: dict[str, "xr.Dataset"]) -> dict[str, float]:
     """How well ``error_estimate`` brackets the true error over every setting.
 
     Returns ``within`` (share of settings with estimate/10 ≤ true ≤ estimate), ``min_ratio``

@@ -10,6 +10,7 @@ import xarray as xr
 import yaml
 from snakemake.utils import validate
 
+from ced.convergence import load_sweep
 from ced.study import chunks
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -59,7 +60,36 @@ def test_dry_run(path, tmp_path):
     expected = len(n_chunks) if config["base_scene"].get("modal") else 0
     assert counts.get("campbell_figure", 0) == expected
     assert f"results/{config['study']}/maps/" in output
+    # Convergence study: one job per family of the sweep (config key `convergence`, a path
+    # relative to the repository root or the block itself) and one summary; none without it.
+    sweep = load_sweep(config, root=ROOT)
+    families = list(sweep["families"]) if sweep else []
+    assert counts.get("convergence_family", 0) == len(families)
+    assert counts.get("convergence_summary", 0) == (1 if families else 0)
+    for family in families:
+        assert f"results/{config['study']}/convergence/{family}.nc" in output
+        assert f"results/{config['study']}/figures/accuracy/{family}.png" in output
     assert not (tmp_path / "results").exists()  # a dry run writes nothing
+
+
+def test_default_config_runs_the_convergence_study():
+    """The default study points at the convergence sweep, whose families are study families
+    (test_dry_run checks one convergence_family job for each)."""
+    sweep = load_sweep(load(CONFIGS[0]), root=ROOT)
+    assert sweep is not None and len(sweep["families"]) >= 1
+    known = yaml.safe_load(SCHEMA.read_text())["properties"]["families"]["items"]["enum"]
+    assert set(sweep["families"]) <= set(known)
+
+
+def test_accuracy_under_one_heading():
+    """The fidelity ladder and the convergence study (Pareto plots, accuracy table) are in one
+    report category: what accuracy costs in time."""
+    rules = ROOT / "workflow" / "rules"
+    heading = 'category="What accuracy costs in time"'
+    assert heading in (rules / "ladder.smk").read_text()
+    convergence = (rules / "convergence.smk").read_text()
+    assert convergence.count(heading) >= 4  # csv, md, Pareto png per family, estimate png
+    assert "category=" not in convergence.replace(heading, "")
 
 
 def test_study_replaces_default_config(tmp_path):
@@ -87,7 +117,8 @@ def test_lint():
     rules = re.findall(r"^Lints for rule (\w+)", text, re.M)
     assert set(rules) <= {"simulate_chunk", "reduce_family", "overview_figure",
                           "campbell_figure", "fidelity_ladder", "resonance_map",
-                          "worst_case_figure", "safe_speed_table"}
+                          "worst_case_figure", "safe_speed_table", "convergence_family",
+                          "convergence_summary"}
 
 
 @pytest.fixture(scope="module")
