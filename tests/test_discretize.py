@@ -19,11 +19,11 @@ def _no_a_priori(steps):
 @settings(max_examples=25, deadline=None)
 def test_choice_meets_the_tolerance_at_least_cost(space, time, tol):
     elements, steps, predicted = choose(space, time, tol, 1.0, 16, _no_a_priori)
-    assert predicted == pytest.approx(space / elements**2 + time / steps**2)
+    assert predicted == pytest.approx(space / elements**3 + time / steps**2)
     if predicted <= tol / SAFETY:
         # Brute force over the same candidates: nothing that meets the target is cheaper.
         best = min(_cost(e, s, 1.0) for e in _ELEMENTS for s in range(16, 1 << 16, 8)
-                   if space / e**2 + time / s**2 <= tol / SAFETY)
+                   if space / e**3 + time / s**2 <= tol / SAFETY)
         assert _cost(elements, steps, 1.0) == pytest.approx(best)
     else:  # beyond the grid: the finest setting, its predicted error above the target
         assert elements == _ELEMENTS[-1]
