@@ -16,16 +16,14 @@ a safety factor of 3 that keeps it an upper bound when the asymptotic constants 
 approached. Where coarsening is impossible (one element, fewer than 16 steps) the missing
 direction is refined instead, in a separate companion.
 
-Richardson's argument needs the asymptotic range in time, which a strongly dissipative
-scheme (Houbolt) reaches only when the first natural period spans many steps: with fewer, its
-algorithmic damping flattens the response of the fine solution and of the companion alike, and
-their difference misleads. Where the scheme's damping ratio at ω₁h exceeds :data:`DAMPED`, an
-a-priori term is added from the exact 1-DOF behaviour of the scheme: its relative frequency
-error plus its damping ratio at ω₁h, doubled (the sensitivity of a sub-resonant response to
-its natural frequency), weighted by the dynamic share of the response, 1 − 1/amplification
-(:func:`time_resolution_error`). It is not used for the non-dissipative schemes: a stiff mode
-driven far below its frequency responds quasi-statically, correctly, however coarse ω₁h is,
-and the term would only overstate. The estimate is the larger of the two terms.
+Richardson's argument needs both solutions in the asymptotic range. Halving the step leaves
+it when the companion would have fewer than :data:`MIN_COMPANION_STEPS` steps per revolution
+(the crank harmonics that carry the load are then under-resolved) or when its ω₁h would cross
+1 while the scene's is below π (the first mode neither resolved nor quasi-static; a strongly
+dissipative scheme such as Houbolt is far from its limit there). The steps are then doubled
+instead (:func:`coarsening_allowed`), at about three times the cost of the scene's solution.
+Measured on the convergence study (``config/studies/convergence.yaml``, issue 6): see
+``docs/accuracy.md``.
 
 Not estimated: the modal truncation of ``modes_per_link`` (with static load vectors it is
 below 1e-5 on the reference four-bar even with one mode per link), and model error (beam vs
@@ -39,10 +37,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .integrators import amplification_matrix, make_integrator
 
-__all__ = ["Companion", "companions", "coarsening_allowed", "MIN_COMPANION_STEPS", "combine", "time_resolution_error", "algorithmic_damping",
-           "DAMPED",
+__all__ = ["Companion", "companions", "coarsening_allowed", "MIN_COMPANION_STEPS", "combine",
 
            "SPACE_ORDER", "TIME_ORDER", "SAFETY"]
 
@@ -55,8 +51,7 @@ SPACE_ORDER = {"euler_bernoulli": 3, "timoshenko": 3, "plane_stress": 2, "seed_l
 TIME_ORDER = 2
 #: Factor between the estimate and Richardson's asymptotic error estimate.
 SAFETY = 3.0
-#: Algorithmic damping ratio at ω₁h above which the a-priori term is added.
-DAMPED = 0.01
+
 
 
 class Companion(NamedTuple):
@@ -168,59 +163,8 @@ def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
             Companion(variant(ne, steps), _factor((spr / steps) ** TIME_ORDER))]
 
 
-def _dispersion(time_cfg: dict, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Relative frequency error |ω̄/ω − 1| and algorithmic damping ratio ξ̄ of the scheme's
-    principal root at ω h = W (1 and 1 where the scheme has no oscillatory root)."""
-    from .ked import _scheme_params  # the scene → integrator parameters map lives there
-
-    scheme = make_integrator(time_cfg["integrator"], **_scheme_params(time_cfg))
-    roots = np.linalg.eigvals(amplification_matrix(scheme, W))
-    # The principal root is the complex one whose phase per step is nearest ωh; spurious roots
-    # are real (possibly negative, phase π). Without a complex root the mode is overdamped by
-    # the scheme: its response is lost.
-    oscillatory = roots.imag > 1e-12 * np.abs(roots)
-    distance = np.where(oscillatory, np.abs(np.angle(roots) - W[..., None]), np.inf)
-    principal = np.take_along_axis(roots, distance.argmin(axis=-1)[..., None], -1)[..., 0]
-    advance = np.where(oscillatory.any(axis=-1), np.abs(np.angle(principal)), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frequency_error = np.where(advance > 0, np.abs(advance / W - 1.0), 1.0)
-        damping = np.where(advance > 0, -np.log(np.abs(principal)) / advance, 1.0)
-    return frequency_error, damping
-
-
-def algorithmic_damping(time_cfg: dict, omega_h: np.ndarray) -> np.ndarray:
-    """The scheme's algorithmic damping ratio at ω h (dimensionless)."""
-    return _dispersion(time_cfg, np.clip(np.asarray(omega_h, float), 1e-6, None))[1]
-
-
-def time_resolution_error(time_cfg: dict, omega_h: np.ndarray, dynamic_share: np.ndarray
-                          ) -> np.ndarray:
-    """A-priori relative error of the response from the integrator's dispersion at ω₁h.
-
-    Parameters
-    ----------
-    time_cfg : dict
-        The scene's ``time`` block (integrator and its parameters).
-    omega_h : (case,) array
-        First natural circular frequency × step, rad per step.
-    dynamic_share : (case,) array
-        1 − 1/amplification, the part of the response due to vibration, in [0, 1].
-
-    Returns
-    -------
-    (case,) array
-        2 × share × (|ω̄/ω − 1| + ξ̄), with ω̄h the phase advance per step and ξ̄ the
-        algorithmic damping ratio of the scheme's principal root.
-    """
-    W = np.clip(np.asarray(omega_h, float), 1e-6, None)
-    frequency_error, damping = _dispersion(time_cfg, W)
-    unresolved = W >= math.pi  # beyond Nyquist the mode is not represented at all
-    error = 2.0 * np.clip(dynamic_share, 0.0, 1.0) * (frequency_error + np.abs(damping))
-    return np.where(unresolved, np.clip(dynamic_share, 0.0, 1.0), error)
-
-
-def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[float],
-            time_error: np.ndarray | None = None) -> np.ndarray:
+def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[float]
+            ) -> np.ndarray:
     """The relative error estimate of each case's peak stress.
 
     Parameters
@@ -228,7 +172,6 @@ def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[f
     peak : (case,) peak stress of the scene's own discretization, Pa
     companion_peaks : list of (case,) arrays, the companions' peak stress, Pa
     factors : list of float, :attr:`Companion.factor` of each companion
-    time_error : (case,) array or None, :func:`time_resolution_error`
 
     Returns
     -------
@@ -236,7 +179,4 @@ def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[f
     """
     scale = np.where(np.abs(peak) > 0, np.abs(peak), np.nan)
     estimate = sum(f * np.abs(peak - c) for c, f in zip(companion_peaks, factors)) / scale
-    estimate = np.where(np.abs(peak) > 0, estimate, 0.0)
-    if time_error is not None:
-        estimate = np.fmax(estimate, time_error)
-    return estimate
+    return np.where(np.abs(peak) > 0, estimate, 0.0)

@@ -16,8 +16,8 @@ case in four batched stages:
    mesh. Measured on one core (benchmarks): a step costs about 35 µs per case and the reduction
    of one link about 70 ms × (n_e/128)³, so cost ∝ s_r·revolutions + 2000 (n_e/128)³ steps.
 4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e up to 256, s_r in multiples of 8) with
-   C_x/n_e³ + C_t/s_r² ≤ tolerance / :data:`SAFETY` and, for a scheme that damps the first
-   mode, the a-priori dispersion term of ``ced.accuracy`` below a third of the tolerance.
+   C_x/n_e³ + C_t/s_r² ≤ tolerance / :data:`SAFETY`, with at least half the first pilot's
+   steps (ω₁h ≤ 1).
 
 The choice, the pilot constants and the predicted error are recorded per case in the variable
 ``discretization_auto`` (JSON).
@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .accuracy import DAMPED, SPACE_ORDER, TIME_ORDER, algorithmic_damping, time_resolution_error
+from .accuracy import SPACE_ORDER, TIME_ORDER
 
 __all__ = ["resolve_discretization", "MODES", "PILOT_ELEMENTS", "SAFETY"]
 
@@ -73,7 +73,7 @@ def _cost(elements: np.ndarray, steps: np.ndarray, revolutions: float) -> np.nda
 
 
 def choose(space: float, time: float, tolerance: float, revolutions: float,
-           min_steps: int, a_priori) -> tuple[int, int, float]:
+           min_steps: int) -> tuple[int, int, float]:
     """The cheapest (elements, steps per revolution) meeting the tolerance.
 
     Parameters
@@ -87,17 +87,12 @@ def choose(space: float, time: float, tolerance: float, revolutions: float,
         Simulated input periods (the cost is per step).
     min_steps : int
         Fewest steps per revolution allowed (resolution of ω₁ and the harmonics).
-    a_priori : callable
-        steps (array) → the a-priori time term of ``ced.accuracy`` at those step counts.
 
     Returns
     -------
     elements, steps, predicted error
     """
     steps = np.arange(8 * math.ceil(min_steps / 8), MAX_STEPS + 1, 8)
-    steps = steps[a_priori(steps) <= tolerance / 3.0]
-    if not len(steps):
-        steps = np.array([MAX_STEPS])
     ne, sr = np.meshgrid(_ELEMENTS, steps, indexing="ij")
     predicted = space / ne**_P_SPACE + time / sr**TIME_ORDER
     cost = np.where(predicted <= tolerance / SAFETY, _cost(ne, sr, revolutions), np.inf)
@@ -117,8 +112,7 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
     solve : callable
         list of scenes → dict of (case,) arrays: ``peak`` (peak stress, Pa), ``omega1`` (largest
         first natural frequency over the cycle, rad/s, when the scenes ask for a modal
-        analysis) and ``share`` (dynamic share of the response, 1 − 1/amplification);
-        injected by :mod:`ced.simulation` so the pilots are batched like any run.
+        analysis); injected by :mod:`ced.simulation` so the pilots are batched like any run.
 
     Returns
     -------
@@ -141,7 +135,7 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
     finer_x = [_pilot(scenes[i], 2 * n, s) for i, s in zip(auto, steps0)]
     finer_t = [_pilot(scenes[i], n, 2 * s) for i, s in zip(auto, steps0)]
     first = solve(coarse)
-    peak, share = first["peak"], first["share"]
+    peak = first["peak"]
     peak_x = solve(finer_x)["peak"]
     peak_t = solve(finer_t)["peak"]
     for j, i in enumerate(auto):
@@ -152,17 +146,10 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
         gs, gt = 2.0**_P_SPACE, 2.0**TIME_ORDER
         space = gs / (gs - 1.0) * abs(peak_x[j] - peak[j]) / sigma * n**_P_SPACE
         time = gt / (gt - 1.0) * abs(peak_t[j] - peak[j]) / sigma * s0**TIME_ORDER
-        speed = scene["drive"]["speed"]
         w1 = float(omega1[j])
 
-        def a_priori(steps, scene=scene, speed=speed, w1=w1, share=float(share[j])):
-            # The same a-priori term as the error estimate: only where the scheme damps ω₁.
-            wh = w1 * 2.0 * math.pi / (speed * steps)
-            error = time_resolution_error(scene["time"], wh, np.full(len(steps), share))
-            return np.where(algorithmic_damping(scene["time"], wh) > DAMPED, error, 0.0)
-
         elements, steps, predicted = choose(space, time, scene["tolerance"],
-                                            scene["time"]["revolutions"], s0 // 2, a_priori)
+                                            scene["time"]["revolutions"], s0 // 2)
         chosen = copy.deepcopy(scene)
         chosen["discretization"] = {"formulation": "euler_bernoulli",
                                     "elements_per_link": elements, "elements_across": 2,

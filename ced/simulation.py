@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import time as _time
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import xarray as xr
@@ -142,24 +142,6 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
     return np.concatenate(parts)[order]
 
 
-def _a_priori_time_error(scenes: list[dict], omega1_h: np.ndarray,
-                         amplification: np.ndarray) -> np.ndarray:
-    """The integrator's a-priori error at ω₁ (:func:`ced.accuracy.time_resolution_error`), per
-    case, where the scheme damps the first mode noticeably (algorithmic damping ratio above
-    :data:`ced.accuracy.DAMPED` at ω₁h): there the response converges to its limit only once
-    the damping is gone, late, and a companion solution can mislead (Houbolt below ~20 steps
-    per natural period). Elsewhere the companion alone is used."""
-    from .accuracy import DAMPED, algorithmic_damping, time_resolution_error
-
-    share = _dynamic_share(amplification)
-    out = np.zeros(len(scenes))
-    for i, scene in enumerate(scenes):
-        w = np.array([omega1_h[i]])
-        if algorithmic_damping(scene["time"], w)[0] > DAMPED:
-            out[i] = time_resolution_error(scene["time"], w, share[i:i + 1])[0]
-    return out
-
-
 def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
                     order: np.ndarray) -> np.ndarray:
     """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`)."""
@@ -197,35 +179,20 @@ def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
         factor = np.array([plans[i][slot].factor for i in cases])
         terms[cases] += combine(peak[cases], [companion_peak], [1.0]) * factor
     estimate[wanted] = terms[wanted]
-    if dynamic:
-        estimate[dynamic] = np.fmax(estimate[dynamic], _a_priori_time_error(
-            [scenes[i] for i in dynamic], omega1_h[dynamic],
-            data["dynamic_amplification"][dynamic]))
     failed = (data["status"] & io.STATUS_FLAGS["failed"]) > 0
     estimate[failed] = np.nan
     return estimate
 
 
-def _dynamic_share(amplification: np.ndarray) -> np.ndarray:
-    """(case, link) dynamic amplification → (case,) share of vibration 1 − 1/A, in [0, 1]."""
-    a = np.abs(amplification)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(a > 0, np.abs(1.0 - 1.0 / a), 0.0)
-    return np.clip(np.nanmax(np.where(np.isfinite(share), share, 0.0), axis=1), 0.0, 1.0)
-
-
 def _pilot_solve(scenes: list[dict]) -> dict[str, np.ndarray]:
-    """Peak stress, first natural frequency and dynamic share of pilot scenes (for
+    """Peak stress and first natural frequency of pilot scenes (for
     :func:`ced.discretize.resolve_discretization`), in the order given."""
     groups: dict[tuple, list[int]] = {}
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
-    out = {"peak": np.full(len(scenes), np.nan), "omega1": np.full(len(scenes), np.nan),
-           "share": np.ones(len(scenes))}
+    out = {"peak": np.full(len(scenes), np.nan), "omega1": np.full(len(scenes), np.nan)}
     for _, indices, result, _ in _solve_groups(scenes, groups):
         out["peak"][indices] = _case_peak(result["peak_stress"])
-        if "dynamic_amplification" in result:
-            out["share"][indices] = _dynamic_share(result["dynamic_amplification"])
         if "natural_frequency" in result:
             f1 = np.abs(result["natural_frequency"][:, :, 0])
             out["omega1"][indices] = 2.0 * np.pi * np.nanmax(f1, axis=1)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.accuracy import coarsening_allowed, combine, companions, time_resolution_error
+from ced.accuracy import coarsening_allowed, combine, companions
 from ced.scene import load_scene
 from ced.simulation import simulate
 
@@ -54,27 +54,13 @@ def test_one_element_per_link_is_refined_not_coarsened():
     assert time.factor == pytest.approx(1.0)
 
 
-def test_a_priori_time_term_is_second_order_and_vanishes_without_vibration():
-    cfg = load_scene(_scene(8, 64, integrator="newmark"))["time"]
-    w = np.array([0.05, 0.1])
-    err = time_resolution_error(cfg, w, np.ones(2))
-    # Trapezoidal rule: no algorithmic damping, period error (ωh)²/12 to leading order.
-    assert err == pytest.approx(2.0 * w**2 / 12.0, rel=0.02)
-    assert time_resolution_error(cfg, w, np.zeros(2)) == pytest.approx(0.0)
-    assert time_resolution_error(cfg, np.array([4.0]), np.array([0.3]))[0] == pytest.approx(0.3)
 
 
-def test_houbolt_is_less_accurate_than_generalized_alpha_at_the_same_step():
-    ga = load_scene(_scene(8, 64))["time"]
-    hb = load_scene(_scene(8, 64, integrator="houbolt"))["time"]
-    w, share = np.array([0.3, 0.7]), np.array([0.2, 0.2])
-    assert (time_resolution_error(hb, w, share) > 5 * time_resolution_error(ga, w, share)).all()
-
-
-def test_combine_is_relative_and_takes_the_larger_term():
-    est = combine(np.array([100.0, 0.0]), [np.array([90.0, 0.0])], [1.0], np.array([0.5, 0.0]))
-    assert est == pytest.approx([0.5, 0.0])
-    assert combine(np.array([100.0]), [np.array([90.0])], [1.0])[0] == pytest.approx(0.1)
+def test_combine_is_relative_and_adds_the_companions():
+    est = combine(np.array([100.0, 0.0]), [np.array([90.0, 0.0])], [1.0])
+    assert est == pytest.approx([0.1, 0.0])
+    two = combine(np.array([100.0]), [np.array([90.0]), np.array([98.0])], [1.0, 4.0])
+    assert two[0] == pytest.approx(0.1 + 0.08)
 
 
 @pytest.mark.parametrize("ne, spr, integrator", [
@@ -84,8 +70,7 @@ def test_estimate_brackets_the_true_error(reference_four_bar_peak, ne, spr, inte
     ds = simulate(_scene(ne, spr, integrator=integrator))
     true = abs(float(ds.peak_stress.max()) - reference_four_bar_peak) / reference_four_bar_peak
     estimate = float(ds.error_estimate[0])
-    assert estimate >= true / 2.0  # never smaller than the true error by more than 2
-    assert estimate <= 10.0 * true or (ne, spr) == (8, 32)
+    assert true <= estimate <= 10.0 * true  # the band issue 6 asks for on 90 % of settings
     assert ds.error_estimate.attrs["units"] == "1"
 
 

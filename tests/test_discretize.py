@@ -1,7 +1,6 @@
 """discretization: auto — the cheapest setting under the tolerance, and the achieved error."""
 import json
 
-import numpy as np
 import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
@@ -10,15 +9,11 @@ from ced.discretize import _ELEMENTS, MODES, SAFETY, _cost, choose
 from ced.simulation import simulate
 
 
-def _no_a_priori(steps):
-    return np.zeros(len(steps))
-
-
 @given(space=st.floats(1e-3, 10.0), time=st.floats(1e-2, 1e3),
        tol=st.sampled_from([1e-2, 1e-3, 1e-4]))
 @settings(max_examples=25, deadline=None)
 def test_choice_meets_the_tolerance_at_least_cost(space, time, tol):
-    elements, steps, predicted = choose(space, time, tol, 1.0, 16, _no_a_priori)
+    elements, steps, predicted = choose(space, time, tol, 1.0, 16)
     assert predicted == pytest.approx(space / elements**3 + time / steps**2)
     if predicted <= tol / SAFETY:
         # Brute force over the same candidates: nothing that meets the target is cheaper.
@@ -27,13 +22,6 @@ def test_choice_meets_the_tolerance_at_least_cost(space, time, tol):
         assert _cost(elements, steps, 1.0) == pytest.approx(best)
     else:  # beyond the grid: the finest setting, its predicted error above the target
         assert elements == _ELEMENTS[-1]
-
-
-def test_a_priori_term_raises_the_step_count():
-    loose = choose(0.1, 1.0, 1e-2, 1.0, 16, _no_a_priori)
-    strict = choose(0.1, 1.0, 1e-2, 1.0, 16,
-                    lambda s: np.where(s < 400, 1.0, 0.0))
-    assert strict[1] >= 400 > loose[1]
 
 
 @pytest.mark.parametrize("tolerance", [1e-2, 1e-3])
