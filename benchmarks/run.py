@@ -28,7 +28,7 @@ import numpy as np  # noqa: E402
 
 from ced.cases import make_batch  # noqa: E402
 from ced.scene import load_scene  # noqa: E402
-from ced.simulation import solve_batch  # noqa: E402
+from ced.simulation import simulate, solve_batch  # noqa: E402
 
 REFERENCE = {
     "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
@@ -77,6 +77,41 @@ def throughput(start: str, size: int, repeat: int, modes: int) -> float:
     return size / best
 
 
+def estimate_overhead(steps: int, size: int = 100) -> dict:
+    """Wall time of ``simulate`` with and without ``error_estimate``, reduced model, periodic
+    start, one batch of ``size`` cases (one run each, measured in the same process)."""
+    scenes = [{**REFERENCE, "drive": {"speed": 100.0 + 1e-3 * i},
+               "discretization": {"elements_per_link": ELEMENTS, "modes_per_link": 4},
+               "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "periodic"},
+               "modal": {"modes": 1, "angles": 12}} for i in range(size)]
+    times = {}
+    for flag in (False, True):
+        batch = [{**s, "outputs": {**s["outputs"], "error_estimate": flag}} for s in scenes]
+        t0 = time.perf_counter()
+        simulate(batch)
+        times[flag] = time.perf_counter() - t0
+    return {"steps_per_revolution": steps, "batch": size,
+            "ms_per_case_without": 1e3 * times[False] / size,
+            "ms_per_case_with": 1e3 * times[True] / size,
+            "overhead": times[True] / times[False] - 1.0}
+
+
+def auto_cost(tolerance: float, size: int = 100) -> dict:
+    """Wall time per case of ``discretization: auto`` (pilots included) and the choice."""
+    scenes = [{**REFERENCE, "drive": {"speed": 100.0 + 1e-3 * i}, "discretization": "auto",
+               "tolerance": tolerance, "outputs": {**REFERENCE["outputs"],
+                                                   "error_estimate": False},
+               "time": {"revolutions": 2, "start": "periodic"}} for i in range(size)]
+    t0 = time.perf_counter()
+    ds = simulate(scenes)
+    elapsed = time.perf_counter() - t0
+    choice = json.loads(str(ds.discretization_auto.values[0]))
+    return {"tolerance": tolerance, "batch": size, "ms_per_case": 1e3 * elapsed / size,
+            "elements_per_link": choice["elements_per_link"],
+            "steps_per_revolution": choice["steps_per_revolution"],
+            "predicted_error": choice["predicted_error"]}
+
+
 def main() -> None:
     results = {"machine": platform.machine(), "python": sys.version.split()[0],
                "numpy": np.__version__, "elements": ELEMENTS, "steps_per_revolution": STEPS,
@@ -91,6 +126,16 @@ def main() -> None:
                                         "cases_per_second": rate, "peak_strain_error": error})
                 print(f"{model:8s} {start:11s} batch {size:5d}: {rate:8.1f} cases/s "
                       f"({1e3 / rate:7.2f} ms/case), peak strain error {error:.2%}", flush=True)
+    results["error_estimate"] = [estimate_overhead(steps) for steps in (64, 128, 256)]
+    for row in results["error_estimate"]:
+        print(f"error_estimate, {row['steps_per_revolution']} steps/rev: "
+              f"{row['ms_per_case_without']:.2f} → {row['ms_per_case_with']:.2f} ms/case "
+              f"(+{row['overhead']:.0%})", flush=True)
+    results["discretization_auto"] = [auto_cost(t) for t in (1e-2, 1e-3, 1e-4)]
+    for row in results["discretization_auto"]:
+        print(f"discretization auto, tolerance {row['tolerance']:g}: {row['ms_per_case']:.2f} "
+              f"ms/case with pilots ({row['elements_per_link']} el, "
+              f"{row['steps_per_revolution']} steps/rev)", flush=True)
     out = Path(__file__).with_name("results.json")
     out.write_text(json.dumps(results, indent=2) + "\n")
     print(f"wrote {out}")

@@ -12,9 +12,11 @@ case in four batched stages:
    ``ced.accuracy`` (3 in space, 2 in time): e(n_e, s_r) ≈ C_x/n_e³ + C_t/s_r².
 3. **Cost model.** The model is always Euler–Bernoulli reduced to :data:`MODES` fixed-interface
    modes per flexible link plus static load vectors (component-mode synthesis), whose truncation
-   error is below 1e-5 on the reference four-bar and whose per-step cost does not grow with the
-   mesh. Measured on one core (benchmarks): a step costs about 35 µs per case and the reduction
-   of one link about 70 ms × (n_e/128)³, so cost ∝ s_r·revolutions + 2000 (n_e/128)³ steps.
+   error is below 1e-5 on the reference four-bar and whose per-step cost grows only slowly with
+   the mesh. Measured on one core (reference crank-rocker, batches of 4): a step costs about
+   0.1 ms + 0.04 ms per element per case (the recovery and the moving-frame terms work on the
+   full mesh) and the reduction of one link about 70 ms × (n_e/128)³, so
+   cost ∝ s_r·revolutions·(1 + 0.4 n_e) + 2000 (n_e/128)³.
 4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e up to 256, s_r in multiples of 8) with
    C_x/n_e³ + C_t/s_r² ≤ tolerance / :data:`SAFETY`, with at least half the first pilot's
    steps (ω₁h ≤ 1).
@@ -42,11 +44,12 @@ MIN_STEPS, MAX_STEPS = 16, 1 << 16
 #: Highest crank harmonic resolved a priori (16 steps per its period).
 HARMONICS = 4
 #: Predicted error must be below tolerance / SAFETY, so that the per-case error_estimate
-#: (three times Richardson's, ced.accuracy) also comes out below the tolerance, with a margin
-#: for the pilot constants.
-SAFETY = 4.0
-#: Cost of reducing one link of 128 elements, in time steps (measured, see module docstring).
+#: (three times Richardson's, ced.accuracy) comes out near the tolerance.
+SAFETY = 3.0
+#: Cost of reducing one link of 128 elements, in steps of a one-element model (measured, see
+#: the module docstring), and the growth of a step's cost per element per link.
 REDUCTION_COST = 2000.0
+STEP_COST_PER_ELEMENT = 0.4
 _P_SPACE = SPACE_ORDER["euler_bernoulli"]
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
@@ -69,7 +72,9 @@ def _first_steps(omega1: float, speed: float) -> int:
 
 
 def _cost(elements: np.ndarray, steps: np.ndarray, revolutions: float) -> np.ndarray:
-    return steps * revolutions + REDUCTION_COST * (elements / 128.0) ** 3
+    """Relative cost of a reduced model (module docstring, stage 3)."""
+    return steps * revolutions * (1.0 + STEP_COST_PER_ELEMENT * elements) + REDUCTION_COST * (
+        elements / 128.0) ** 3
 
 
 def choose(space: float, time: float, tolerance: float, revolutions: float,
