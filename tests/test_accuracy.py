@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.accuracy import coarsening_allowed, combine, companions
+from ced.accuracy import algorithmic_damping, coarsening_allowed, combine, companions
 from ced.scene import load_scene
 from ced.simulation import simulate
 
@@ -81,3 +81,13 @@ def test_no_estimate_when_not_asked_or_rigid():
     rigid = copy.deepcopy(_scene(4, 32))
     rigid["discretization"] = {"formulation": "rigid"}
     assert "error_estimate" not in simulate(rigid)
+
+
+def test_dissipative_scheme_refines_until_the_first_mode_is_resolved():
+    hb = load_scene(_scene(8, 64, integrator="houbolt"))
+    ga = load_scene(_scene(8, 64))
+    # Houbolt damps ω₁h = 3.2 heavily; its companion goes to 8× the steps (ω₁h = 0.4).
+    assert algorithmic_damping(hb["time"], 1.6) > 0.1 > algorithmic_damping(ga["time"], 1.6)
+    assert companions(hb, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 512
+    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(3.0 / (1.0 - 1.0 / 64.0))
+    assert companions(ga, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 128
