@@ -144,7 +144,8 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
 
 def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
                     order: np.ndarray) -> np.ndarray:
-    """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`)."""
+    """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`); NaN for a
+    failed case, or where a companion failed (the case's own results are kept)."""
     from .accuracy import combine, companions
 
     wanted = [i for i, s in enumerate(scenes) if s["outputs"]["error_estimate"]
@@ -172,7 +173,11 @@ def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
         for j, scene in enumerate(others):
             groups.setdefault(structure_key(scene), []).append(j)
         companion_peak = np.full(len(cases), np.nan)
-        for _, indices, result, _ in _solve_groups(others, groups):
+        for key, indices in groups.items():
+            try:
+                ((_, _, result, _),) = _solve_groups(others, {key: indices})
+            except Exception:  # noqa: BLE001 — every companion failed: no estimate, case kept
+                continue
             value = _case_peak(result["peak_stress"])
             failed = (result["status"] & io.STATUS_FLAGS["failed"]) > 0
             companion_peak[indices] = np.where(failed, np.nan, value)

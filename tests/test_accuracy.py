@@ -91,3 +91,19 @@ def test_dissipative_scheme_refines_until_the_first_mode_is_resolved():
     assert companions(hb, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 512
     assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(3.0 / (1.0 - 1.0 / 64.0))
     assert companions(ga, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 128
+
+
+def test_failing_companion_leaves_the_case_and_no_estimate(monkeypatch):
+    import ced.simulation as simulation
+
+    real = simulation.solve_batch
+
+    def failing_companions(batch):
+        if "companion" in batch.scenes[0].get("name", ""):
+            raise FloatingPointError("injected")
+        return real(batch)
+
+    monkeypatch.setattr(simulation, "solve_batch", failing_companions)
+    ds = simulate(_scene(4, 128))
+    assert np.isnan(ds.error_estimate[0]) and np.isfinite(ds.peak_stress).all()
+    assert int(ds.status[0]) & 16 == 0  # the case itself did not fail
