@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from .convergence import UNRESOLVED  # noqa: E402
 from .plots import save  # noqa: E402
 
 __all__ = ["QUANTITIES", "group_label", "pareto_front", "pareto_figure", "estimate_figure",
@@ -246,8 +247,9 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     The shaded band is [estimate/10, estimate]: an estimate that is safe (not below the true
     error) and not more than ten times pessimistic. Above the diagonal the estimate is
     optimistic. The title gives the number of points inside the band, counted as
-    :func:`ced.convergence.estimate_validation` does: settings whose true error is below three
-    times the reference's uncertainty (not resolved) are drawn hollow and not counted.
+    :func:`ced.convergence.estimate_validation` does: settings whose true error is below
+    ``UNRESOLVED`` times the reference's uncertainty, or whose reference is uncertain by more
+    than 1 % (not resolved), are drawn hollow and not counted.
     """
     fig, ax = plt.subplots(figsize=(5.6, 5.0), constrained_layout=True)
     inside = total = 0
@@ -255,7 +257,8 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     for k, (family, ds) in enumerate(datasets.items()):
         est = np.abs(np.asarray(ds.error_estimate.values, float))
         true = np.abs(np.asarray(ds.error_peak_stress.values, float))
-        floor = 3.0 * _uncertainty(ds, "reference_peak_stress")
+        uncertainty = _uncertainty(ds, "reference_peak_stress")
+        floor = UNRESOLVED * uncertainty if not uncertainty >= 1e-2 else np.inf
         ok = _usable(est, true)
         resolved = ok & ~(true <= floor)  # NaN floor: every point resolved
         ax.scatter(est[resolved], true[resolved], s=14, color=f"C{k % 10}", label=family,
@@ -287,7 +290,8 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     ax.set_ylabel("true relative error of peak stress (vs reference)")
     share = f"{inside} of {total} in band" if total else "no settings"
     ax.set_title(f"Error estimate against true error — {share}\n(stars: auto; hollow: true "
-                 "error below 3× the reference uncertainty, not counted)", fontsize=9)
+                 f"error below {UNRESOLVED:g}× the reference uncertainty, or a reference "
+                 "uncertain by > 1 %: not counted)", fontsize=9)
     ax.grid(True, which="both", lw=0.3, alpha=0.5)
     ax.legend(fontsize=7, loc="upper left")
     return fig
@@ -315,8 +319,9 @@ def _validation_line(validation: dict) -> str:
         within, ratio = float(validation["within"]), float(validation["min_ratio"])
         share = f"{100 * within:.0f} %" if np.isfinite(within) else "—"
         return (f"Error estimate: for {share} of the {int(validation['settings'])} settings "
-                "whose true error of peak stress is resolved (above 3× the reference's "
-                "uncertainty), estimate/10 ≤ true error ≤ estimate; the smallest "
+                f"whose true error of peak stress is resolved (above {UNRESOLVED:g}× the "
+                "reference's uncertainty, itself below 1 %), estimate/10 ≤ true error ≤ "
+                "estimate; the smallest "
                 f"estimate/true ratio is {_cell(ratio)} (below 1: an optimistic estimate).")
     parts = [f"{key} = {_cell(value)}" for key, value in validation.items()]
     return ("Error estimate validation (true error of peak stress within [estimate/10, "
