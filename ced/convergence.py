@@ -11,8 +11,8 @@ with σ(N, S) at N elements and S steps per revolution,
 
     σ_ref = σ(N, S) + [σ(N, S) − σ(N/2, S)]/3 + [σ(N, S) − σ(N, S/2)]/3        (order 2)
 
-and its uncertainty is the difference to the same extrapolation one level coarser, which
-bounds what the extrapolation leaves. The first frequency (mean over the cycle of the lowest
+and its uncertainty is the larger of the extrapolation's correction and its difference to
+the same extrapolation one level coarser. The first frequency (mean over the cycle of the lowest
 mode) converges at order 4 in space and does not depend on the step.
 
 ``discretization: auto`` is checked on the same scenes: for each tolerance the chosen setting's
@@ -156,7 +156,10 @@ def _reference(sweep: dict, family: str, formulation: str) -> dict[str, tuple[fl
             v["fine"] - v["time"]) / 3.0
         coarse = v["coarse"] + (v["coarse"] - v["coarse_space"]) / (2**p_space - 1) + (
             v["coarse"] - v["coarse_time"]) / 3.0
-        out[q] = (fine, abs(fine - coarse) / abs(fine) if fine else 0.0)
+        # Known to within the larger of the extrapolation's own correction and its change
+        # from one level coarser.
+        spread = max(abs(fine - coarse), abs(fine - v["fine"]))
+        out[q] = (fine, spread / abs(fine) if fine else 0.0)
     return out
 
 

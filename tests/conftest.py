@@ -84,3 +84,12 @@ def reference_four_bar_peak() -> float:
 
     fine, space, time = peak(128, 1024), peak(64, 1024), peak(128, 512)
     return fine + (fine - space) / 3.0 + (fine - time) / 3.0
+
+
+def corpus_header(path: Path, key: str) -> str:
+    """The ``# key: value`` header line of a bad-input corpus file (tests/bad_*)."""
+    import re
+
+    match = re.search(rf"^# {key}: (.*)$", path.read_text(), re.MULTILINE)
+    assert match, f"{path.name} lacks a '# {key}:' line"
+    return match.group(1).strip()

@@ -20,8 +20,8 @@ def _scene(ne: int, spr: int, **time) -> dict:
 
 def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     (companion,) = companions(load_scene(_scene(8, 256)), omega1_h=0.2)
-    # Order 3 in space: 8 → 5 elements grows the error (8/5)³ = 4.1×, like halving the step.
-    assert companion.scene["discretization"]["elements_per_link"] == 5
+    # Order 2 in space: 8 → 4 elements grows the error 4×, like halving the step.
+    assert companion.scene["discretization"]["elements_per_link"] == 4
     assert companion.scene["time"]["steps_per_revolution"] == 128
     assert companion.scene["modal"] is None
     # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate three times that.
@@ -33,7 +33,7 @@ def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omeg
     # Fewer than 64 steps in the companion, or ω₁h above 1 there while below π here.
     assert not coarsening_allowed(steps, omega1_h)
     space, time = companions(load_scene(_scene(8, steps)), omega1_h)
-    assert space.scene["discretization"]["elements_per_link"] == 5
+    assert space.scene["discretization"]["elements_per_link"] == 4
     assert space.scene["time"]["steps_per_revolution"] == steps
     assert time.scene["discretization"]["elements_per_link"] == 8
     assert time.scene["time"]["steps_per_revolution"] == 2 * steps
@@ -46,10 +46,11 @@ def test_stiff_first_mode_allows_halving():
     assert coarsening_allowed(256, 0.4) and not coarsening_allowed(256, 0.6)
 
 
-def test_one_element_per_link_is_refined_not_coarsened():
-    space, time = companions(load_scene(_scene(2, 256)), omega1_h=0.2)
-    assert space.scene["discretization"]["elements_per_link"] == 4  # 2 → 1 would be too coarse
-    assert space.factor == pytest.approx(3.0 / (1.0 - 1.0 / 8.0))
+@pytest.mark.parametrize("elements", [1, 2, 4])
+def test_small_meshes_are_refined_not_coarsened(elements):
+    space, time = companions(load_scene(_scene(elements, 256)), omega1_h=0.2)
+    assert space.scene["discretization"]["elements_per_link"] == 2 * elements
+    assert space.factor == pytest.approx(3.0 / (1.0 - 1.0 / 4.0))
     assert time.scene["time"]["steps_per_revolution"] == 128
     assert time.factor == pytest.approx(1.0)
 

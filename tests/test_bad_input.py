@@ -6,7 +6,6 @@ from __future__ import annotations
 import copy
 import json
 import math
-import re
 import subprocess
 import sys
 from pathlib import Path
@@ -20,18 +19,13 @@ from ced.cli import main
 from ced.errors import SceneError
 from ced.study import (MAX_GRID_POINTS, check_config, chunks, load_config, study_estimate,
                        validate_config)
+from tests.conftest import corpus_header
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 BAD_CONFIGS = sorted((HERE / "bad_configs").glob("*.yaml"))
 BAD_SCENES = sorted((HERE / "bad_scenes").glob("*.yaml"))
 TEST_STUDY = ROOT / "config" / "studies" / "test.yaml"
-
-
-def header(path: Path, key: str) -> str:
-    match = re.search(rf"^# {key}: (.*)$", path.read_text(), re.MULTILINE)
-    assert match, f"{path.name} lacks a '# {key}:' line"
-    return match.group(1).strip()
 
 
 def test_corpus_is_large_enough():
@@ -46,8 +40,8 @@ def test_corpus_is_large_enough():
 def test_bad_config_names_the_key(path):
     with pytest.raises(SceneError) as err:
         validate_config(load_config(path))
-    assert err.value.path == header(path, "expect"), str(err.value)
-    assert header(path, "mentions") in err.value.message, str(err.value)
+    assert err.value.path == corpus_header(path, "expect"), str(err.value)
+    assert corpus_header(path, "mentions") in err.value.message, str(err.value)
     assert str(err.value) == f"{err.value.path}: {err.value.message}"
 
 
@@ -57,7 +51,7 @@ def test_ced_check_exits_2_and_writes_nothing(path, tmp_path, monkeypatch, capsy
     assert main(["check", str(path)]) == 2
     out, err = capsys.readouterr()
     assert out == ""
-    assert err.startswith(f"ced: error: {header(path, 'expect')}: "), err
+    assert err.startswith(f"ced: error: {corpus_header(path, 'expect')}: "), err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -129,7 +123,7 @@ def test_ced_run_bad_scene_exits_2_and_writes_nothing(path, tmp_path, monkeypatc
     assert main(["run", str(good), str(path), "-o", str(tmp_path / "out" / "run.nc")]) == 2
     out, err = capsys.readouterr()
     assert out == ""
-    assert err.startswith(f"ced: error: {header(path, 'expect')}: "), err
+    assert err.startswith(f"ced: error: {corpus_header(path, 'expect')}: "), err
     assert list(tmp_path.iterdir()) == []
 
 

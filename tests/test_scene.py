@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from ced.mechanism import assembly_error, topology
 from ced.scene import (DEFAULT_EFFECTS, EFFECTS, FORMULATIONS, INTEGRATORS, SCENE_KEYS,
                        SceneError, dump_scene, load_scene, scene_hash)
+from tests.conftest import corpus_header
 
 HERE = Path(__file__).parent
 BAD_SCENES = sorted((HERE / "bad_scenes").glob("*.yaml"))
@@ -219,12 +220,6 @@ def test_config_scenes_are_valid_and_idempotent(path):
 
 
 # --------------------------------------------------------------------------- bad scenes
-def _header(path: Path, key: str) -> str:
-    match = re.search(rf"^# {key}: (.*)$", path.read_text(), re.MULTILINE)
-    assert match, f"{path.name} lacks a '# {key}:' line"
-    return match.group(1).strip()
-
-
 def test_there_are_enough_bad_scenes():
     assert len(BAD_SCENES) >= 20
     for path in BAD_SCENES:
@@ -235,8 +230,8 @@ def test_there_are_enough_bad_scenes():
 def test_bad_scene(path):
     with pytest.raises(SceneError) as err:
         load_scene(path)
-    assert err.value.path == _header(path, "expect"), str(err.value)
-    assert _header(path, "mentions") in err.value.message, str(err.value)
+    assert err.value.path == corpus_header(path, "expect"), str(err.value)
+    assert corpus_header(path, "mentions") in err.value.message, str(err.value)
     assert str(err.value) == f"{err.value.path}: {err.value.message}"
 
 
