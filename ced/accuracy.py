@@ -11,9 +11,10 @@ comes from one coarser companion solution and the known convergence orders:
 
 The companion halves the steps and coarsens the mesh so that both error parts grow about
 fourfold; then a fine solution σ and its companion σ_c give Richardson's asymptotic error
-|σ − σ_c|/3 whatever the signs of the parts. The estimate is three times that, |σ − σ_c|/σ:
-a safety factor of 3 that keeps it an upper bound when the asymptotic constants are only
-approached. Where coarsening is impossible (one element, fewer than 16 steps) the missing
+|σ − σ_c|/3 whatever the signs of the parts. The estimate is :data:`SAFETY` = 4 times that,
+4|σ − σ_c|/(3σ): a safety factor that keeps it an upper bound when the asymptotic constants
+are only approached (3 left one setting of the convergence study at 0.42 of its true error,
+4 keeps all above 0.5 with 92 % inside [true, 10 × true]). Where coarsening is impossible (one element, fewer than 16 steps) the missing
 direction is refined instead, in a separate companion.
 
 Richardson's argument needs both solutions in the asymptotic range. Halving the step leaves
@@ -53,7 +54,7 @@ SPACE_ORDER = {"euler_bernoulli": 2, "timoshenko": 2, "plane_stress": 2, "seed_l
 #: Convergence order in the time step (every integrator of ced.integrators).
 TIME_ORDER = 2
 #: Factor between the estimate and Richardson's asymptotic error estimate.
-SAFETY = 3.0
+SAFETY = 4.0
 
 
 

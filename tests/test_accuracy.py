@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.accuracy import algorithmic_damping, coarsening_allowed, combine, companions
+from ced.accuracy import SAFETY, algorithmic_damping, coarsening_allowed, combine, companions
 from ced.scene import load_scene
 from ced.simulation import simulate
 
@@ -24,8 +24,8 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     assert companion.scene["discretization"]["elements_per_link"] == 4
     assert companion.scene["time"]["steps_per_revolution"] == 128
     assert companion.scene["modal"] is None
-    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate three times that.
-    assert companion.factor == pytest.approx(1.0)
+    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY times that.
+    assert companion.factor == pytest.approx(SAFETY / 3.0)
 
 
 @pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.6), (256, 1.5)])
@@ -37,7 +37,7 @@ def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omeg
     assert space.scene["time"]["steps_per_revolution"] == steps
     assert time.scene["discretization"]["elements_per_link"] == 8
     assert time.scene["time"]["steps_per_revolution"] == 2 * steps
-    assert time.factor == pytest.approx(3.0 / (1.0 - 1.0 / 4.0))
+    assert time.factor == pytest.approx(SAFETY / (1.0 - 1.0 / 4.0))
 
 
 def test_stiff_first_mode_allows_halving():
@@ -50,9 +50,9 @@ def test_stiff_first_mode_allows_halving():
 def test_small_meshes_are_refined_not_coarsened(elements):
     space, time = companions(load_scene(_scene(elements, 256)), omega1_h=0.2)
     assert space.scene["discretization"]["elements_per_link"] == 2 * elements
-    assert space.factor == pytest.approx(3.0 / (1.0 - 1.0 / 4.0))
+    assert space.factor == pytest.approx(SAFETY / (1.0 - 1.0 / 4.0))
     assert time.scene["time"]["steps_per_revolution"] == 128
-    assert time.factor == pytest.approx(1.0)
+    assert time.factor == pytest.approx(SAFETY / 3.0)
 
 
 
@@ -90,7 +90,7 @@ def test_dissipative_scheme_refines_until_the_first_mode_is_resolved():
     # Houbolt damps ω₁h = 3.2 heavily; its companion goes to 8× the steps (ω₁h = 0.4).
     assert algorithmic_damping(hb["time"], 1.6) > 0.1 > algorithmic_damping(ga["time"], 1.6)
     assert companions(hb, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 512
-    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(3.0 / (1.0 - 1.0 / 64.0))
+    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(SAFETY / (1.0 - 1.0 / 64.0))
     assert companions(ga, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 128
 
 
