@@ -11,6 +11,7 @@ import xarray as xr
 
 from ced.accuracy_plots import (QUANTITIES, accuracy_markdown, estimate_figure, group_label,
                                 pareto_figure, pareto_front, write_accuracy_summary)
+from ced.convergence import UNRESOLVED
 
 GROUPS = [("euler_bernoulli", 0, "newmark"), ("euler_bernoulli", 4, "generalized_alpha"),
           ("timoshenko", 0, "generalized_alpha")]
@@ -168,11 +169,15 @@ def test_estimate_figure():
     fig = estimate_figure(datasets)
     (ax,) = fig.axes
     assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    total = 0
     for family, ds in datasets.items():
-        assert n_points(by_gid(ax, f"estimate:{family}")) == ds.sizes["setting"]
+        floor = UNRESOLVED * ds.reference_peak_stress.attrs["uncertainty"]
+        resolved = int((ds.error_peak_stress > floor).sum())
+        assert n_points(by_gid(ax, f"estimate:{family}")) == resolved
+        assert n_points(by_gid(ax, f"unresolved:{family}")) == ds.sizes["setting"] - resolved
         assert n_points(by_gid(ax, f"auto:{family}")) == 2
-    # synthetic estimates are 3x the true error: all inside [estimate/10, estimate]
-    total = sum(ds.sizes["setting"] for ds in datasets.values())
+        total += resolved
+    # synthetic estimates are 3x the true error: all resolved ones inside [estimate/10, estimate]
     assert f"{total} of {total} in band" in ax.get_title()
     fig.canvas.draw()
 
