@@ -14,15 +14,15 @@ fourfold; then a fine solution σ and its companion σ_c give Richardson's asymp
 |σ − σ_c|/3 whatever the signs of the parts. The estimate is :data:`SAFETY` = 4 times that,
 4|σ − σ_c|/(3σ): a safety factor that keeps it an upper bound when the asymptotic constants
 are only approached (3 left one setting of the convergence study at 0.42 of its true error,
-4 keeps all above 0.5 with 92 % inside [true, 10 × true]). Where coarsening is impossible (one element, fewer than 16 steps) the missing
-direction is refined instead, in a separate companion.
+4 keeps all above 0.5 with 92 % inside [true, 10 × true]).
 
 Richardson's argument needs both solutions in the asymptotic range. Halving the step leaves
 it when the companion would have fewer than :data:`MIN_COMPANION_STEPS` steps per revolution
 (the crank harmonics that carry the load are then under-resolved) or when its ω₁h would cross
 1 while the scene's is below π (the first mode neither resolved nor quasi-static; a strongly
 dissipative scheme such as Houbolt is far from its limit there). The steps are then doubled
-instead (:func:`coarsening_allowed`), at about three times the cost of the scene's solution.
+instead (:func:`coarsening_allowed`), at about three times the cost of the scene's solution;
+so is a mesh of four elements or fewer refined rather than coarsened.
 Measured on the convergence study (``config/studies/convergence.yaml``, issue 6): see
 ``docs/accuracy.md``.
 
@@ -40,7 +40,6 @@ import numpy as np
 
 from .integrators import amplification_matrix, make_integrator
 
-
 __all__ = ["Companion", "companions", "coarsening_allowed", "algorithmic_damping", "combine",
            "MIN_COMPANION_STEPS", "SPACE_ORDER", "TIME_ORDER", "SAFETY"]
 
@@ -55,7 +54,6 @@ SPACE_ORDER = {"euler_bernoulli": 2, "timoshenko": 2, "plane_stress": 2, "seed_l
 TIME_ORDER = 2
 #: Factor between the estimate and Richardson's asymptotic error estimate.
 SAFETY = 4.0
-
 
 
 class Companion(NamedTuple):
@@ -195,9 +193,9 @@ def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
     if halve and coarse is not None:
         growth = min((ne / coarse) ** order, 4.0)
         return [Companion(variant(coarse, spr // 2), _factor(growth))]
-    # Separately: the mesh coarsened (or refined, rather than down to one element) at the
-    # scene's steps, and the steps halved (or doubled) on the scene's mesh. Each part is estimated on its own and the parts
-    # are added, so they cannot cancel in the estimate.
+    # Separately: the mesh coarsened (or, from four elements or fewer, refined) at the scene's
+    # steps, and the steps halved (or refined) on the scene's mesh. Each part is estimated on
+    # its own and the parts are added, so they cannot cancel in the estimate.
     space = coarse if coarse is not None else 2 * ne
     steps = spr // 2 if halve else spr * _refinement(time, omega1_h)
     return [Companion(variant(space, spr), _factor((ne / space) ** order)),
