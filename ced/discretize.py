@@ -24,7 +24,9 @@ case in four batched stages:
    e(n_e, s_r) ≤ tolerance / :data:`SAFETY`, with at least half the first pilot's
    steps (ω₁h ≤ 1).
 
-The choice, the pilot constants and the predicted error are recorded per case in the variable
+One discretization serves all ``auto`` scenes of a call, the most demanding one's, so that
+they share one time grid (one ``step`` dimension) and batch together. The choice, each case's
+own choice, the pilot errors and the predicted error are recorded per case in the variable
 ``discretization_auto`` (JSON).
 """
 from __future__ import annotations
@@ -167,6 +169,7 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
     peak = first["peak"]
     peak_x = solve(finer_x)["peak"]
     peak_t = solve(finer_t)["peak"]
+    choices = []
     for j, i in enumerate(auto):
         scene, s0 = scenes[i], steps0[j]
         sigma = abs(peak[j]) if peak[j] else 1.0
@@ -174,20 +177,25 @@ def resolve_discretization(scenes: list[dict], solve) -> tuple[list[dict], list[
         # (8/7 at order 3; 4/3 is the safe side).
         space = 4.0 / 3.0 * abs(peak_x[j] - peak[j]) / sigma
         time = 4.0 / 3.0 * abs(peak_t[j] - peak[j]) / sigma
-        w1 = float(omega1[j])
-
         elements, steps, predicted = choose(space, time, s0, scene["tolerance"],
                                             scene["time"]["revolutions"], s0 // 2)
-        chosen = copy.deepcopy(scene)
+        choices.append((elements, steps))
+        reports[i] = {"own_choice": [elements, steps], "predicted_error": predicted,
+                      "tolerance": scene["tolerance"], "pilot_space_error": space,
+                      "pilot_time_error": time, "pilot_steps_per_revolution": s0,
+                      "first_frequency": float(omega1[j]) / (2.0 * math.pi)}
+    # One discretization for the call, the most demanding case's: the cases then share one
+    # time grid (a dataset has one step dimension) and batch together; every case meets its
+    # tolerance with it.
+    elements = max(e for e, _ in choices)
+    steps = max(s for _, s in choices)
+    for i in auto:
+        chosen = copy.deepcopy(scenes[i])
         chosen["discretization"] = {"formulation": "euler_bernoulli",
                                     "elements_per_link": elements, "elements_across": 2,
                                     "modes_per_link": _modes(elements)}
         chosen["time"]["steps_per_revolution"] = steps
         out[i] = chosen
-        reports[i] = {"elements_per_link": elements, "steps_per_revolution": steps,
-                      "modes_per_link": _modes(elements), "formulation": "euler_bernoulli",
-                      "predicted_error": predicted, "tolerance": scene["tolerance"],
-                      "pilot_space_error": space, "pilot_time_error": time,
-                      "pilot_steps_per_revolution": s0,
-                      "first_frequency": w1 / (2.0 * math.pi)}
+        reports[i].update(elements_per_link=elements, steps_per_revolution=steps,
+                          modes_per_link=_modes(elements), formulation="euler_bernoulli")
     return out, reports

@@ -54,3 +54,16 @@ def test_scene_without_auto_reports_nothing():
     raw["discretization"] = {"elements_per_link": 2}
     raw["time"]["steps_per_revolution"] = 32
     assert "discretization_auto" not in simulate(raw)
+
+
+def test_several_auto_scenes_share_the_most_demanding_discretization():
+    raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+    raw.pop("modal")
+    raw["discretization"] = "auto"
+    fast = {**raw, "drive": {"speed": 150.0}}
+    ds = simulate([raw, fast])
+    choices = [json.loads(str(v)) for v in ds.discretization_auto.values]
+    own = [c["own_choice"] for c in choices]
+    assert choices[0]["steps_per_revolution"] == choices[1]["steps_per_revolution"] == max(
+        s for _, s in own)
+    assert choices[0]["elements_per_link"] == max(e for e, _ in own)
