@@ -93,3 +93,24 @@ def corpus_header(path: Path, key: str) -> str:
     match = re.search(rf"^# {key}: (.*)$", path.read_text(), re.MULTILINE)
     assert match, f"{path.name} lacks a '# {key}:' line"
     return match.group(1).strip()
+
+
+def mutate_container(data, target, junk, new_keys) -> None:
+    """Replace, delete or insert one entry of a dict or list (in place), for the parser fuzz
+    tests. ``junk`` draws the new values, ``new_keys`` the keys inserted into a dict."""
+    action = data.draw(st.sampled_from(["replace", "delete", "insert"]), label="action")
+    if isinstance(target, dict):
+        if action == "insert" or not target:
+            target[data.draw(new_keys, label="new key")] = data.draw(junk)
+            return
+        key = data.draw(st.sampled_from(sorted(target, key=str)), label="key")
+        if action == "delete":
+            del target[key]
+        else:
+            target[key] = data.draw(junk)
+    elif action == "insert" or not target:
+        target.insert(data.draw(st.integers(0, len(target))), data.draw(junk))
+    elif action == "delete":
+        del target[data.draw(st.integers(0, len(target) - 1))]
+    else:
+        target[data.draw(st.integers(0, len(target) - 1))] = data.draw(junk)

@@ -19,7 +19,7 @@ from ced.cli import main
 from ced.errors import SceneError
 from ced.study import (MAX_GRID_POINTS, check_config, chunks, load_config, study_estimate,
                        validate_config)
-from tests.conftest import corpus_header
+from tests.conftest import corpus_header, mutate_container
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
@@ -183,24 +183,8 @@ def _mutate(data, config):
         if not containers or not data.draw(st.booleans(), label="descend"):
             break
         target = data.draw(st.sampled_from(containers), label="into")[1]
-    action = data.draw(st.sampled_from(["replace", "delete", "insert"]), label="action")
-    if isinstance(target, dict):
-        if action == "insert" or not target:
-            key = data.draw(st.one_of(st.text(max_size=6), st.sampled_from(
-                ["families", "chunk_size", "offset", "slider_mass", "num", "modal"])))
-            target[key] = data.draw(junk)
-        else:
-            key = data.draw(st.sampled_from(sorted(target, key=str)))
-            if action == "delete":
-                del target[key]
-            else:
-                target[key] = data.draw(junk)
-    elif action == "insert" or not target:
-        target.insert(data.draw(st.integers(0, len(target))), data.draw(junk))
-    elif action == "delete":
-        del target[data.draw(st.integers(0, len(target) - 1))]
-    else:
-        target[data.draw(st.integers(0, len(target) - 1))] = data.draw(junk)
+    mutate_container(data, target, junk, st.one_of(st.text(max_size=6), st.sampled_from(
+        ["families", "chunk_size", "offset", "slider_mass", "num", "modal"])))
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from ced.mechanism import assembly_error, topology
 from ced.scene import (DEFAULT_EFFECTS, EFFECTS, FORMULATIONS, INTEGRATORS, SCENE_KEYS,
                        SceneError, dump_scene, load_scene, scene_hash)
-from tests.conftest import corpus_header
+from tests.conftest import corpus_header, mutate_container
 
 HERE = Path(__file__).parent
 BAD_SCENES = sorted((HERE / "bad_scenes").glob("*.yaml"))
@@ -386,25 +386,8 @@ def _mutate(data, scene):
     for _ in range(data.draw(st.integers(1, 4), label="mutations")):
         containers = _containers(scene, [])
         target = data.draw(st.sampled_from(containers), label="target")
-        action = data.draw(st.sampled_from(["replace", "delete", "insert"]), label="action")
-        if isinstance(target, dict):
-            keys = list(target)
-            if action == "insert" or not keys:
-                key = data.draw(st.one_of(st.sampled_from(KEYS), st.text(max_size=4)))
-                target[key] = data.draw(junk)
-            else:
-                key = data.draw(st.sampled_from(keys))
-                if action == "delete":
-                    del target[key]
-                else:
-                    target[key] = data.draw(junk)
-        else:
-            if action == "insert" or not target:
-                target.insert(data.draw(st.integers(0, len(target))), data.draw(junk))
-            elif action == "delete":
-                del target[data.draw(st.integers(0, len(target) - 1))]
-            else:
-                target[data.draw(st.integers(0, len(target) - 1))] = data.draw(junk)
+        mutate_container(data, target, junk, st.one_of(st.sampled_from(KEYS),
+                                                       st.text(max_size=4)))
     return scene
 
 
