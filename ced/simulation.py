@@ -143,17 +143,24 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
 
 
 def _error_estimate(scenes: list[dict], data: dict, solved: list[tuple],
-                    order: np.ndarray) -> np.ndarray:
+                    order: np.ndarray, known: dict[int, float] | None = None) -> np.ndarray:
     """``error_estimate`` per case from companion solutions (:mod:`ced.accuracy`); NaN for a
-    failed case, or where a companion failed (the case's own results are kept)."""
+    failed case, or where a companion failed (the case's own results are kept). Cases in
+    ``known`` (case → estimate) already have one: ``discretization: auto``'s ladders are
+    their companions."""
     from .accuracy import combine, companions
 
+    known = known or {}
     wanted = [i for i, s in enumerate(scenes) if s["outputs"]["error_estimate"]
               and isinstance(s["discretization"], dict)
-              and s["discretization"]["formulation"] != "rigid"]
+              and s["discretization"]["formulation"] != "rigid" and i not in known]
     estimate = np.full(len(scenes), np.nan)
+    for i, value in known.items():
+        if scenes[i]["outputs"]["error_estimate"]:
+            estimate[i] = value
     if not wanted:
-        return estimate
+        failed = (data["status"] & io.STATUS_FLAGS["failed"]) > 0
+        return np.where(failed, np.nan, estimate)
     dynamic = [i for i in wanted if "elastic_inertia" in scenes[i]["effects"]]
     omega1_h = np.zeros(len(scenes))
     if dynamic:
@@ -301,7 +308,9 @@ def simulate(scenes) -> xr.Dataset:
         [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
     if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
-        data["error_estimate"] = _error_estimate(normalized, data, solved, order)
+        known = {i: r["predicted_error"] for i, r in enumerate(reports) if r} \
+            if auto_discretization is not None else {}
+        data["error_estimate"] = _error_estimate(normalized, data, solved, order, known)
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
     if auto_reports is not None:

@@ -4,8 +4,8 @@ import pytest
 import xarray as xr
 import yaml
 
-from ced.convergence import (TARGETS, accuracy_table, estimate_validation, load_sweep,
-                             run_family, settings)
+from ced.convergence import (TARGETS, accuracy_table, auto_table, estimate_validation,
+                             load_sweep, run_family, settings)
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,15 @@ def test_estimate_bounds_the_true_error(result):
 
 def test_auto_meets_the_tolerance(result):
     assert (result.auto_error < result.tolerance).all()
+    # Its error estimate is the ladders' prediction, within the target.
     assert (result.auto_error_estimate < result.tolerance).all()
+    assert (result.auto_error_estimate == result.auto_predicted_error).all()
+    table = auto_table({"slider_crank": result})
+    assert list(table.tolerance) == [1e-2] and table.resolved.all()
+    # The cheapest sweep setting and the choice are re-timed side by side.
+    np.testing.assert_allclose(table.cost_ratio, result.auto_solve_time
+                               / result.cheapest_solve_time)
+    assert (table.cheapest_error < 1e-2).all() and (result.cost_ratio > 0).all()
 
 
 def test_table_picks_the_cheapest_setting_meeting_each_target(result):
