@@ -28,8 +28,9 @@ that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, n
    than at twice that order between two rungs (a mode resolved in between: the double
    crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser rung's error
    holds up to the finer rung.
-4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e up to 256, s_r in multiples of 8 from
-   the first rung) with E_x + E_t ≤ tolerance / :data:`SAFETY`, by :func:`cost`, a model of
+4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e from 2, s_r in multiples of 8 from the
+   first rung, both up to the ladders' finest rungs) with E_x + E_t ≤ tolerance /
+   :data:`SAFETY`, by :func:`cost`, a model of
    the solve time per case fitted to the convergence study's timings (:data:`COST`). The model
    is the full Euler–Bernoulli mesh or the mesh reduced to :data:`MODES` fixed-interface modes
    per flexible link plus static load vectors (component-mode synthesis, truncation below 1e-5
@@ -38,7 +39,8 @@ that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, n
 One discretization serves all ``auto`` scenes of a call, the most demanding one's, so that
 they share one time grid (one ``step`` dimension) and batch together. Per case the variable
 ``discretization_auto`` (JSON) records the choice, the case's own choice, both ladders, the
-predicted error and whether the tolerance was reachable within the ladders' limits. The
+predicted error and whether the tolerance was reachable within the ladders' limits (where it
+was not, the ladders' finest rungs are used and ``status`` has ``tolerance_unmet``). The
 predicted error at the chosen setting is also the case's ``error_estimate``: the ladders are
 its companion solutions (``ced.accuracy``'s are not run for ``auto`` cases).
 """
@@ -70,8 +72,6 @@ LADDER_ELEMENTS = 8
 FIRST_STEPS = 32
 #: Finest rungs of the ladders; beyond them the error is extrapolated.
 MAX_LADDER_STEPS, MAX_LADDER_ELEMENTS = 4096, 128
-#: Largest steps per revolution chosen: one level beyond the time ladder.
-MAX_STEPS = 2 * MAX_LADDER_STEPS
 #: A mode below this crank harmonic can be resonantly excited: the time ladder resolves it,
 #: ω₁h ≤ RESOLVED (the asymptotic range of the integrators, as in ``ced.accuracy``).
 RESONANT_HARMONICS, RESOLVED = 16, 0.5
@@ -229,13 +229,16 @@ def choose(space: tuple, time: tuple, tolerance: float, revolutions: float,
     setting of the grid is predicted to meet the target, the ladders' finest rungs (measured,
     not extrapolated), with their predicted error.
     """
-    steps = np.arange(FIRST_STEPS, MAX_STEPS + 1, 8)
-    predicted = predicted_error(space, time, _ELEMENTS[:, None], steps[None, :])
-    model_cost, full = cost(_ELEMENTS[:, None], steps[None, :], revolutions, flexible_links)
+    # Within the ladders: they climb until their finest rungs meet the target with room to
+    # spare, so a setting beyond them is only wanted where they did not converge.
+    steps = np.arange(FIRST_STEPS, int(time[0][-1]) + 1, 8)
+    elements = _ELEMENTS[_ELEMENTS <= space[0][-1]]
+    predicted = predicted_error(space, time, elements[:, None], steps[None, :])
+    model_cost, full = cost(elements[:, None], steps[None, :], revolutions, flexible_links)
     model_cost = np.where(predicted <= tolerance / SAFETY, model_cost, np.inf)
     if np.isfinite(model_cost).any():
         i, j = np.unravel_index(np.argmin(model_cost), model_cost.shape)
-        return int(_ELEMENTS[i]), int(steps[j]), float(predicted[i, j]), bool(full[i, j])
+        return int(elements[i]), int(steps[j]), float(predicted[i, j]), bool(full[i, j])
     elements, steps = int(space[0][-1]), int(time[0][-1])
     predicted = float(space[1][-1] + time[1][-1])
     return elements, steps, predicted, bool(cost(elements, steps, revolutions,

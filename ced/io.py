@@ -39,6 +39,9 @@ STATUS_FLAGS = {
     # beyond its Euler load, or centrifugal softening of a near-mechanism mode): reported as
     # a negative natural_frequency, −√|λ|/2π (ced.modal, ced.ked._buckled).
     "buckled": 64,
+    # discretization: auto could not reach the scene's tolerance within its ladders' limits
+    # (ced.discretize): the error estimate says by how much.
+    "tolerance_unmet": 128,
 }
 
 _F64, _F32 = "float64", "float32"

@@ -313,6 +313,9 @@ def simulate(scenes) -> xr.Dataset:
         data["error_estimate"] = _error_estimate(normalized, data, solved, order, known)
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
+        unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])
+        data["status"] = np.where(unmet, data["status"] | io.STATUS_FLAGS["tolerance_unmet"],
+                                  data["status"]).astype(data["status"].dtype)
     if auto_reports is not None:
         data["effects_auto"] = np.array(auto_reports, dtype=object)
 

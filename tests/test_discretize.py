@@ -7,7 +7,7 @@ import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
-from ced.discretize import (_ELEMENTS, FIRST_STEPS, MAX_LADDER_STEPS, MAX_STEPS, MODES,
+from ced.discretize import (_ELEMENTS, FIRST_STEPS, MAX_LADDER_STEPS, MODES,
                             RESONANT_HARMONICS, SAFETY, choose, cost, interpolate,
                             ladder_errors, predicted_error, resolve_discretization)
 from ced.scene import load_scene
@@ -76,8 +76,9 @@ def test_choice_meets_the_tolerance_at_least_cost(space, time, tol, flexible):
     x = (2.0 * 2.0 ** np.arange(len(space)), space)
     t = (FIRST_STEPS * 2.0 ** np.arange(len(time)), time)
     elements, steps, predicted, _ = choose(x, t, tol, 1.0, flexible)
-    # Brute force over the same grid.
-    ne, spr = np.meshgrid(_ELEMENTS, np.arange(FIRST_STEPS, MAX_STEPS + 1, 8), indexing="ij")
+    # Brute force over the same grid, within the ladders.
+    ne, spr = np.meshgrid(_ELEMENTS[_ELEMENTS <= x[0][-1]],
+                          np.arange(FIRST_STEPS, t[0][-1] + 1, 8), indexing="ij")
     grid_error = predicted_error(x, t, ne, spr)
     meeting = grid_error <= tol / SAFETY
     if meeting.any():  # nothing that meets the target is cheaper
@@ -119,7 +120,7 @@ def test_resolution_of_a_smooth_problem_meets_the_tolerance_cheaply(tolerance):
     assert report["predicted_error"] >= 0.3 / ne**3 + 20.0 / spr**2 - 1e-12  # a bound
     # Within 2× of the cheapest setting of the grid whose true error (with the lucky
     # cancellation of the two signs excluded) meets the tolerance.
-    grid_ne, grid_spr = np.meshgrid(_ELEMENTS, np.arange(FIRST_STEPS, MAX_STEPS + 1, 8),
+    grid_ne, grid_spr = np.meshgrid(_ELEMENTS, np.arange(FIRST_STEPS, 1 << 16, 8),
                                     indexing="ij")
     best = cost(grid_ne, grid_spr, 1.0, 1)[0][
         0.3 / grid_ne**3 + 20.0 / grid_spr**2 < tolerance].min()
@@ -134,6 +135,25 @@ def test_unreachable_tolerance_is_reported_with_the_finest_rungs():
     assert not report["tolerance_met"]
     assert chosen["time"]["steps_per_revolution"] == MAX_LADDER_STEPS
     assert report["time_ladder"][-1][0] == MAX_LADDER_STEPS
+
+
+def test_unmet_tolerance_is_flagged_in_status():
+    # The change point: its peak stress grows as a step nears the singular position, so no
+    # ladder converges to 1e-4; the case is flagged, with its estimate, never NaN.
+    raw = reference_raw(discretization="auto", tolerance=1e-4,
+                        mechanism={"type": "four_bar", "ground": 0.25, "crank": 0.05,
+                                   "coupler": 0.2, "rocker": 0.1})
+    raw["drive"] = {"speed": 200.0}
+    raw["links"] = {"default": {"material": "steel",
+                                "section": {"shape": "rectangle", "height": 0.02,
+                                            "width": 0.01}},
+                    "crank": {"flexible": False}}
+    ds = simulate(raw)
+    report = json.loads(str(ds.discretization_auto.values[0]))
+    assert not report["tolerance_met"]
+    assert "tolerance_unmet" in str(ds.status.attrs["flag_meanings"])
+    assert int(ds.status[0]) & 128 and float(ds.error_estimate[0]) > 1e-4
+    assert np.isfinite(ds.peak_stress.values).all()
 
 
 @pytest.mark.parametrize("harmonic, finest", [(10, 128), (15, 256), (20, 128)])
