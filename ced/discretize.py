@@ -94,6 +94,8 @@ def _pilot(scene: dict, elements: int, steps: int) -> dict:
     out["discretization"] = {"formulation": "euler_bernoulli", "elements_per_link": elements,
                              "elements_across": 2, "modes_per_link": MODES}
     out["time"]["steps_per_revolution"] = steps
+    if out["time"]["start"] == "periodic" and out["time"]["revolutions"] >= 1.0:
+        out["time"]["revolutions"] = 1.0  # the periodic state: one revolution has every peak
     out["outputs"] = {**out["outputs"], "every": 1, "error_estimate": False}
     out["modal"] = None
     return out
