@@ -54,12 +54,11 @@ import numpy as np
 
 from .accuracy import TIME_ORDER
 
+__all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
+           "choose", "cost", "MODES", "SAFETY"]
+
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
-
-__all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
-           "choose", "cost",
-           "MODES", "SAFETY"]
 
 #: Fixed-interface modes per flexible link of a reduced model.
 MODES = 4
@@ -70,14 +69,14 @@ LADDER_ELEMENTS = 8
 #: First rung of the time ladder, and the fewest steps per revolution chosen: 8 steps per
 #: period of the 4th crank harmonic.
 FIRST_STEPS = 32
-#: Finest rungs of the ladders; beyond them the error is extrapolated.
+#: Finest rungs of the ladders (and of the choice): a tolerance they do not reach is flagged.
 MAX_LADDER_STEPS, MAX_LADDER_ELEMENTS = 4096, 128
 #: A mode below this crank harmonic can be resonantly excited: the time ladder resolves it,
 #: ω₁h ≤ RESOLVED (the asymptotic range of the integrators, as in ``ced.accuracy``).
 RESONANT_HARMONICS, RESOLVED = 16, 0.5
-#: Predicted error must be below tolerance / SAFETY: the errors between rungs are carried at
-#: the lowest order that peak stress converges at, so the margin only covers the
-#: extrapolated limit of each ladder.
+#: Predicted error must be below tolerance / SAFETY. The rungs' errors are measured against
+#: each ladder's extrapolated limit, which is itself uncertain by up to the last rung's error
+#: (at most tolerance / (2 SAFETY)): the margin covers the two.
 SAFETY = 1.5
 #: Solve time per case, ms, of a batch of 4 on one core (least squares over the convergence
 #: study's Euler–Bernoulli generalized-α settings, the full mesh up to 4 elements and reduced

@@ -279,6 +279,7 @@ def simulate(scenes) -> xr.Dataset:
         auto_reports = [json.dumps(report, sort_keys=True) if report else "" for _, report in
                         resolved]
     auto_discretization = None
+    reports: list[dict] = [{} for _ in normalized]
     if any(s["discretization"] == "auto" for s in normalized):
         from .discretize import resolve_discretization
 
@@ -308,8 +309,7 @@ def simulate(scenes) -> xr.Dataset:
         [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
     if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
-        known = {i: r["predicted_error"] for i, r in enumerate(reports) if r} \
-            if auto_discretization is not None else {}
+        known = {i: r["predicted_error"] for i, r in enumerate(reports) if r}
         data["error_estimate"] = _error_estimate(normalized, data, solved, order, known)
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
