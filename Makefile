@@ -20,7 +20,7 @@ study: $(STAMP)
 	$(BIN)/snakemake --profile workflow/profiles/default --cores $(CORES) --report results/default/report.html
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n $(CORES) tests
+	$(BIN)/python -m pytest -q -n $(CORES) tests ced
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

@@ -1,5 +1,5 @@
 # ced study pipeline: simulate chunks of cases -> reduce per family -> maps, figures -> report.
-# Nothing heavy at parse time: the case table is a pure function of the config (ced.study).
+# Nothing heavy at parse time: the case table is a pure function of the config (ced.study.cases).
 #
 #   snakemake --profile workflow/profiles/default                       # default study
 #   snakemake --profile workflow/profiles/default --configfile config/studies/<name>.yaml
@@ -7,7 +7,8 @@
 #
 # The profiles set replace-workflow-config: a --configfile study replaces config/config.yaml
 # instead of being merged into it (Snakemake merges nested keys by default).
-from ced.study import case_config, check_config, modal_requested
+from ced.study.cases import case_config, modal_requested
+from ced.study.config import check_config
 
 
 configfile: "config/config.yaml"
@@ -19,11 +20,11 @@ CHUNKS = check_config(config)
 STUDY = config["study"]
 FAMILIES = sorted(CHUNKS)
 CAMPBELL = modal_requested(config)
-# Convergence study (config key `convergence`, ced.convergence): one job per family of its sweep;
+# Convergence study (config key `convergence`, ced.study.convergence): one job per family of its sweep;
 # none, and no report section, without the key.
 CONVERGENCE = None
 if config.get("convergence"):
-    from ced.convergence import load_sweep
+    from ced.study.convergence import load_sweep
 
     CONVERGENCE = load_sweep(config, root=workflow.basedir)
 CONVERGENCE_FAMILIES = list(CONVERGENCE["families"]) if CONVERGENCE else []

@@ -6,7 +6,7 @@ Reference four-bar: ground 0.5, crank 0.1, coupler 0.45, rocker 0.35 m; steel; r
 error in peak coupler bending strain, measured by :func:`accuracy` against a 16-element,
 4096-steps-per-revolution full FE solution: 8 elements, 128 steps per revolution — all FE DOFs
 (``full``), and reduced to 4 fixed-interface modes plus static load vectors per flexible link
-(``reduced``, :mod:`ced.reduction`).
+(``reduced``, :mod:`ced.fem.component_modes`).
 
 Run ``python benchmarks/run.py`` (``make bench``); results go to benchmarks/results.json and
 are printed as a table. Single process, one BLAS thread: this measures one core.
@@ -26,9 +26,9 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from ced.cases import make_batch  # noqa: E402
-from ced.scene import load_scene  # noqa: E402
-from ced.simulation import simulate, solve_batch  # noqa: E402
+from ced.response.batch import make_batch  # noqa: E402
+from ced.problem.scene import load_scene  # noqa: E402
+from ced.simulation.simulate import simulate, solve_batch  # noqa: E402
 
 REFERENCE = {
     "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,

@@ -1,23 +1,42 @@
 """ced — kineto-elasto-dynamics of flexible planar linkages.
 
 High-level API: :func:`simulate` (scenes → xarray dataset), :func:`load_scene`,
-:func:`classify`, :func:`input_limits`, :func:`write_dataset`. Heavy modules (xarray, the FE
-machinery) are imported on first use, so ``import ced`` stays light for Snakefile parsing.
+:func:`classify`, :func:`input_limits`, :func:`write_dataset`, :class:`SceneError`. Heavy
+modules (xarray, the FE machinery) are imported on first use, so ``import ced`` stays light
+for Snakefile parsing.
+
+The package is layered the way the data flows; each layer imports only the layers below it
+(checked by the import-linter contract in ``pyproject.toml``, see ``docs/architecture.md``):
+
+=============  ==================================================================
+``cli``        the ``ced`` command
+``study``      case tables and chunk jobs, config validation, maps, figures,
+               convergence study, fidelity ladder
+``io``         netCDF files: atomic writes
+``simulation`` ``simulate``: scenes in, one CF dataset out
+``auto``       automatic choices: effects, discretization, error estimates
+``response``   the time response of a batch: the KED model, integrators, periodic
+               steady state and Floquet, modal analysis over the cycle, recovery
+``fem``        finite elements: link formulations, joint coupling, effect terms,
+               component modes, eigenproblems, strain recovery operators
+``rigid``      rigid motion: kinematics and inverse dynamics
+``problem``    what is asked: scenes, materials, mechanism geometry, errors, status
+=============  ==================================================================
 """
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .mechanism import classify, input_limits  # noqa: E402
+from .problem.mechanism import classify, input_limits  # noqa: E402
 
 __all__ = ["__version__", "classify", "input_limits", "simulate", "load_scene",
            "write_dataset", "SceneError"]
 
 _LAZY = {
-    "simulate": ("ced.simulation", "simulate"),
-    "load_scene": ("ced.scene", "load_scene"),
+    "simulate": ("ced.simulation.simulate", "simulate"),
+    "load_scene": ("ced.problem.scene", "load_scene"),
     "write_dataset": ("ced.io", "write_dataset"),
-    "SceneError": ("ced.errors", "SceneError"),
+    "SceneError": ("ced.problem.errors", "SceneError"),
 }
 
 

@@ -15,9 +15,10 @@ __all__ = ["main"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .io import status_names, write_dataset
-    from .scene import load_scene
-    from .simulation import simulate
+    from .io import write_dataset
+    from .problem.scene import load_scene
+    from .problem.status import status_names
+    from .simulation.simulate import simulate
 
     scenes = [load_scene(path) for path in args.scenes]  # validate everything before solving
     ds = simulate(scenes)
@@ -31,7 +32,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from .study import load_config, study_estimate
+    from .study.config import load_config, study_estimate
 
     estimate = study_estimate(load_config(args.config))
     print(f"{args.config}: valid")
@@ -45,7 +46,7 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def _classify(args: argparse.Namespace) -> int:
-    from .mechanism import classify, input_limits
+    from .problem.mechanism import classify, input_limits
 
     family = classify(args.ground, args.crank, args.coupler, args.rocker)
     limits = input_limits(args.ground, args.crank, args.coupler, args.rocker)
@@ -65,7 +66,7 @@ def _classify(args: argparse.Namespace) -> int:
 
 
 def _ladder(args: argparse.Namespace) -> int:
-    from .ladder import run_scene_ladder
+    from .study.fidelity_ladder import run_scene_ladder
 
     run_scene_ladder(args.scene, args.output, link=args.link)
     print((Path(args.output) / "ladder.md").read_text())
@@ -98,7 +99,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ced`` console script; returns the exit code."""
-    from .errors import SceneError
+    from .problem.errors import SceneError
 
     args = _parser().parse_args(argv)
     try:

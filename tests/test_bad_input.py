@@ -14,11 +14,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import ced.study
+import ced.study.cases
+import ced.study.config
 from ced.cli import main
-from ced.errors import SceneError
-from ced.study import (MAX_GRID_POINTS, check_config, chunks, load_config, study_estimate,
-                       validate_config)
+from ced.problem.errors import SceneError
+from ced.study.config import (MAX_GRID_POINTS, check_config, load_config, study_estimate,
+                              validate_config)
+from ced.study.cases import chunks
 from tests.conftest import corpus_header, mutate_container
 
 HERE = Path(__file__).parent
@@ -82,8 +84,9 @@ def test_huge_grid_is_refused_without_building_it(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("the grid was built")
 
-    monkeypatch.setattr(ced.study, "grid_values", forbidden)
-    monkeypatch.setattr(ced.study, "_assemblable_geometries", forbidden)
+    for module in (ced.study.cases, ced.study.config):
+        monkeypatch.setattr(module, "grid_values", forbidden)
+        monkeypatch.setattr(module, "assemblable_geometries", forbidden)
     config = load_config(HERE / "bad_configs" / "absurdly_large_grid.yaml")
     with pytest.raises(SceneError) as err:
         validate_config(config)
@@ -205,7 +208,7 @@ def test_fuzz_validator_raises_only_scene_errors(data):
     assert sizes and all(n > 0 for n in sizes.values())
     assert json.loads(json.dumps(filled, allow_nan=False)) == filled  # no NaN/inf slipped by
     assert all(math.isfinite(r["speed"]) and r["speed"] > 0
-               for r in ced.study.case_table(filled, scenes=False))
+               for r in ced.study.cases.case_table(filled, scenes=False))
 
 
 @settings(max_examples=60, deadline=None)

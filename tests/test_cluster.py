@@ -15,7 +15,7 @@ import pytest
 import xarray as xr
 import yaml
 
-from ced.study import chunks
+from ced.study.cases import chunks
 
 pytestmark = pytest.mark.skipif(os.environ.get("CED_CLUSTER") != "1",
                                 reason="needs a SLURM cluster: make cluster-test")

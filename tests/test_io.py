@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from ced.io import STATUS_FLAGS, VARIABLES, status_code, status_names, write_dataset
-from ced.simulation import simulate
+from ced.problem.status import STATUS_FLAGS, status_code, status_names
+from ced.simulation.dataset import VARIABLES
+from ced.io import write_dataset
+from ced.simulation.simulate import simulate
 
 SCENE = "config/scenes/sung_thompson_rigid.yaml"
 ELASTIC = {

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ced.study import chunks
+from ced.study.cases import chunks
 from tests.conftest import shared
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,7 +20,7 @@ import pytest
 import xarray as xr
 import yaml
 
-from ced.study import chunks
+from ced.study.cases import chunks
 from tests.conftest import shared
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,8 +10,8 @@ import xarray as xr
 import yaml
 from snakemake.utils import validate
 
-from ced.convergence import load_sweep
-from ced.study import chunks
+from ced.study.convergence import load_sweep
+from ced.study.cases import chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"

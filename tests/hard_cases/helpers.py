@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ced import io
+from ced.problem.status import status_names
 
 
 def assert_finite(ds) -> None:
@@ -15,4 +15,4 @@ def assert_finite(ds) -> None:
 
 def flags(ds, case: int = 0) -> set[str]:
     """Names of the status flags set for ``case``."""
-    return set(io.status_names(int(ds.status.values[case]))) - {"ok"}
+    return set(status_names(int(ds.status.values[case]))) - {"ok"}

@@ -17,9 +17,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-import ced.simulation
-from ced import io
-from ced.study import chunk_rows, load_config, run_chunk, validate_config
+import ced.simulation.simulate
+from ced.io import write_dataset
+from ced.problem.status import STATUS_FLAGS
+from ced.study.cases import chunk_rows
+from ced.study.chunk_job import run_chunk
+from ced.study.config import load_config, validate_config
 
 ROOT = Path(__file__).resolve().parents[2]
 FAMILY, CHUNK = "crank_rocker", 0
@@ -56,7 +59,7 @@ def test_a_failing_case_is_recorded_and_the_chunk_completes(config, clean, tmp_p
                                                            monkeypatch):
     rows = chunk_rows(config, FAMILY, CHUNK, scenes=False)
     victim = rows[1]
-    real = ced.simulation.solve_batch
+    real = ced.simulation.simulate.solve_batch
 
     def solve_batch(batch):
         for scene in batch.scenes:
@@ -65,12 +68,12 @@ def test_a_failing_case_is_recorded_and_the_chunk_completes(config, clean, tmp_p
                 raise FloatingPointError("injected fault in the victim case")
         return real(batch)
 
-    monkeypatch.setattr(ced.simulation, "solve_batch", solve_batch)
+    monkeypatch.setattr(ced.simulation.simulate, "solve_batch", solve_batch)
     path = run_chunk(config, FAMILY, CHUNK, tmp_path / "0.nc")
     with xr.open_dataset(path, engine="netcdf4") as ds:
         assert ds.sizes["case"] == len(rows) == clean.sizes["case"]
         assert list(ds.case.values) == [r["case"] for r in rows]
-        failed = (ds.status.values & io.STATUS_FLAGS["failed"]) > 0
+        failed = (ds.status.values & STATUS_FLAGS["failed"]) > 0
         assert failed.tolist() == [r["case"] == victim["case"] for r in rows]
         message = str(ds.message.values[1])
         assert "FloatingPointError" in message and "injected fault" in message
@@ -114,7 +117,7 @@ def temp_files(directory: Path, name: str) -> list[Path]:
 def test_write_killed_half_way_leaves_no_partial_file(tmp_path, previous):
     final = tmp_path / "chunk.nc"
     if previous is not None:
-        io.write_dataset(small_dataset(previous), final)
+        write_dataset(small_dataset(previous), final)
     writer = subprocess.Popen([sys.executable, "-c", WRITER, str(final)],
                               stdout=subprocess.PIPE, text=True)
     try:
@@ -137,7 +140,7 @@ def test_write_killed_half_way_leaves_no_partial_file(tmp_path, previous):
         with xr.open_dataset(final, engine="netcdf4") as ds:
             assert float(ds.x.max()) == float(ds.x.min()) == previous
     # A rerun writes the complete file under the final name and removes the leftovers.
-    io.write_dataset(small_dataset(2.0), final)
+    write_dataset(small_dataset(2.0), final)
     with xr.open_dataset(final, engine="netcdf4") as ds:
         assert ds.x.values.tolist() == small_dataset(2.0).x.values.tolist()
     assert list(tmp_path.iterdir()) == [final]
@@ -153,7 +156,7 @@ def test_write_that_raises_removes_its_temporary_file(tmp_path, monkeypatch):
 
     monkeypatch.setattr(xr.Dataset, "to_netcdf", to_netcdf)
     with pytest.raises(OSError, match="disk full"):
-        io.write_dataset(small_dataset(1.0), final)
+        write_dataset(small_dataset(1.0), final)
     assert list(tmp_path.iterdir()) == []
 
 

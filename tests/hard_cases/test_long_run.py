@@ -2,11 +2,10 @@
 import numpy as np
 import pytest
 
-from ced import ked
-from ced.cases import make_batch
-from ced.integrators import make_integrator
-from ced.scene import load_scene
-from ced.stepping import march, start
+from ced.problem.scene import load_scene
+from ced.response.batch import make_batch
+from ced.response.integrators import forced_columns, integrator_for, march, start
+from ced.response.model import StepTerms, build_model
 
 REVOLUTIONS, STEPS = 1000, 32
 
@@ -27,19 +26,19 @@ def test_thousand_undamped_revolutions_have_bounded_energy(integrator):
         "discretization": {"elements_per_link": 2},
         "time": {"revolutions": REVOLUTIONS, "steps_per_revolution": STEPS,
                  "integrator": integrator}})
-    model = ked.build_model(make_batch([scene]))
+    model = build_model(make_batch([scene]))
     h = model.batch.step_size
-    periodic = ked._TermCache(model, h, STEPS)  # the terms repeat every revolution
-    terms = lambda k: periodic(k % STEPS)  # noqa: E731
+    periodic = forced_columns(StepTerms(model, h, STEPS), 1)
+    terms = lambda k: periodic(k % STEPS)  # noqa: E731  (the terms repeat every revolution)
     energy = np.zeros(REVOLUTIONS * STEPS + 1)
 
     def record(k, state):
         M, _, K, _ = terms(k)
-        q, v = state[0][0, :, 0], state[1][0, :, 0]
+        q, v = state.q[0, :, 0], state.v[0, :, 0]
         energy[k] = 0.5 * v @ M[0] @ v + 0.5 * q @ K[0] @ q
 
     q0 = np.zeros((1, model.layout.ny, 1))
-    scheme = make_integrator(integrator, **ked._scheme_params(scene["time"]))
+    scheme = integrator_for(scene["time"])
     march(scheme, terms, h, REVOLUTIONS * STEPS, start(terms, q0, q0), record)
     assert np.all(np.isfinite(energy))
     per_rev = energy[1:].reshape(REVOLUTIONS, STEPS).max(axis=1)

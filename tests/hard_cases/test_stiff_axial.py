@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from ced.simulation import simulate
+from ced.simulation.simulate import simulate
 from tests.hard_cases.helpers import assert_finite
 
 L, H, E, RHO = 0.5, 0.005, 2.1e11, 7850.0

@@ -1,4 +1,4 @@
-# Convergence study (ced.convergence): what accuracy costs in time. Families come from the
+# Convergence study (ced.study.convergence): what accuracy costs in time. Families come from the
 # sweep of the config key `convergence` (Snakefile: CONVERGENCE, CONVERGENCE_FAMILIES); without
 # it these rules make no jobs.
 import re as _re

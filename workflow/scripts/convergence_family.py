@@ -1,24 +1,17 @@
 """Rule convergence_family: one family's reference scene over the convergence sweep.
 
-On its own, for debugging: python workflow/scripts/convergence_family.py CONFIG FAMILY OUT
+On its own, for debugging: python workflow/scripts/convergence_family.py [CONFIG.yaml] family=F
 """
 import sys
 
-if "snakemake" not in globals():  # stand-in for the object Snakemake injects
-    from pathlib import Path
-    from types import SimpleNamespace as NS
+if "snakemake" not in globals():  # run on its own: the Snakefile's rule, as Snakemake would
+    from _stand_in import mock_snakemake
 
-    import yaml
-
-    from ced.convergence import load_sweep
-
-    root = Path(__file__).resolve().parents[2]  # a `convergence` path is relative to the repo
-    snakemake = NS(params=NS(sweep=load_sweep(yaml.safe_load(open(sys.argv[1])), root=root)),
-                   wildcards=NS(family=sys.argv[2]), output=[sys.argv[3]], log=["/dev/stderr"])
+    snakemake = mock_snakemake("convergence_family", *sys.argv[1:])
 
 sys.stderr = open(snakemake.log[0], "w")
 
-from ced.convergence import run_family  # noqa: E402
+from ced.study.convergence import run_family  # noqa: E402
 from ced.io import write_dataset  # noqa: E402
 
 write_dataset(run_family(snakemake.params.sweep, snakemake.wildcards.family),

@@ -1,27 +1,18 @@
 """Rule convergence_summary: accuracy table (CSV, markdown), Pareto plot per family and the
 error-estimate check, from the families' convergence files.
 
-On its own, for debugging: python workflow/scripts/convergence_summary.py OUTDIR FAMILY_NC...
-(writes OUTDIR/accuracy.{csv,md}, OUTDIR/<family>.{png,svg}, OUTDIR/estimate.{png,svg})
+On its own, for debugging: python workflow/scripts/convergence_summary.py [CONFIG.yaml]
 """
 import sys
 
-if "snakemake" not in globals():  # stand-in for the object Snakemake injects
-    from pathlib import Path
-    from types import SimpleNamespace as NS
+if "snakemake" not in globals():  # run on its own: the Snakefile's rule, as Snakemake would
+    from _stand_in import mock_snakemake
 
-    out, paths = Path(sys.argv[1]), sys.argv[2:]
-    families = [Path(p).stem for p in paths]
-    snakemake = NS(input=paths, params=NS(families=families), log=["/dev/stderr"],
-                   output=NS(csv=str(out / "accuracy.csv"), md=str(out / "accuracy.md"),
-                             png=[str(out / f"{f}.png") for f in families],
-                             svg=[str(out / f"{f}.svg") for f in families],
-                             estimate_png=str(out / "estimate.png"),
-                             estimate_svg=str(out / "estimate.svg")))
+    snakemake = mock_snakemake("convergence_summary", *sys.argv[1:])
 
 sys.stderr = open(snakemake.log[0], "w")
 
-from ced.accuracy_plots import write_accuracy_summary  # noqa: E402
+from ced.study.convergence_figures import write_accuracy_summary  # noqa: E402
 
 families = list(snakemake.params.families)
 png, svg = snakemake.output.png, snakemake.output.svg

@@ -1,18 +1,17 @@
 """Rule fidelity_ladder: every model on the reference scene, table and figure.
 
-On its own, for debugging: python workflow/scripts/fidelity_ladder.py SCENE OUTDIR
+On its own, for debugging: python workflow/scripts/fidelity_ladder.py [CONFIG.yaml]
 """
 import sys
 from pathlib import Path
 
-if "snakemake" not in globals():  # stand-in for the object Snakemake injects
-    from types import SimpleNamespace as NS
+if "snakemake" not in globals():  # run on its own: the Snakefile's rule, as Snakemake would
+    from _stand_in import mock_snakemake
 
-    snakemake = NS(input=NS(scene=sys.argv[1]),
-                   output=NS(table=str(Path(sys.argv[2]) / "ladder.md")), log=["/dev/stderr"])
+    snakemake = mock_snakemake("fidelity_ladder", *sys.argv[1:])
 
 sys.stderr = open(snakemake.log[0], "w")
 
-from ced.ladder import run_scene_ladder  # noqa: E402
+from ced.study.fidelity_ladder import run_scene_ladder  # noqa: E402
 
 run_scene_ladder(snakemake.input.scene, Path(snakemake.output.table).parent)

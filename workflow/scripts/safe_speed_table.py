@@ -1,18 +1,17 @@
 """Rule safe_speed_table: safe speed limit per geometry of every family, CSV and markdown.
 
-On its own, for debugging: python workflow/scripts/safe_speed_table.py CSV MD FACTOR MAP...
+On its own, for debugging: python workflow/scripts/safe_speed_table.py [CONFIG.yaml]
 """
 import sys
 
-if "snakemake" not in globals():  # stand-in for the object Snakemake injects
-    from types import SimpleNamespace as NS
+if "snakemake" not in globals():  # run on its own: the Snakefile's rule, as Snakemake would
+    from _stand_in import mock_snakemake
 
-    snakemake = NS(input=sys.argv[4:], output=NS(csv=sys.argv[1], md=sys.argv[2]),
-                   params=NS(stress_safety_factor=float(sys.argv[3])), log=["/dev/stderr"])
+    snakemake = mock_snakemake("safe_speed_table", *sys.argv[1:])
 
 sys.stderr = open(snakemake.log[0], "w")
 
-from ced.reduce import write_safe_speed_table  # noqa: E402
+from ced.study.safe_speed import write_safe_speed_table  # noqa: E402
 
 write_safe_speed_table(list(snakemake.input), snakemake.output.csv, snakemake.output.md,
                        snakemake.params.stress_safety_factor)

@@ -1,0 +1,383 @@
+"""``discretization: auto``: elements and steps from the scene's tolerance, at least cost.
+
+The scene's ``tolerance`` is a target relative error on peak stress. Its error is modelled as
+a sum of a space and a time part, e(n_e, s_r) ≈ E_x(n_e) + E_t(s_r), each *measured* on a
+refinement ladder of cheap batched pilots rather than assumed from a convergence order, so
+that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, not guessed:
+
+1. **Time ladder.** The pilot mesh (:data:`LADDER_ELEMENTS` elements per link) is solved at
+   s = :data:`FIRST_STEPS`, 2s, 4s, … steps per revolution. The first rung gives 8 steps per
+   period of the 4th crank harmonic, the coarsest resolution at which a peak over the cycle
+   is meaningful; it also carries a frozen modal analysis, whose first natural frequency ω₁
+   decides whether the mode can be excited by the crank harmonics that matter
+   (ω₁ ≤ :data:`RESONANT_HARMONICS` Ω): then the ladder must resolve it (ω₁h ≤ 1/2) before
+   it may stop, so that its resonant contribution is seen converging. The ladder stops once
+   its last rung's error is below tolerance / (2 :data:`SAFETY`).
+2. **Space ladder**, at the coarsest rung of the time ladder whose time error is within the
+   tolerance (the interaction of the two errors, a few per cent of the time error on the
+   convergence study's scenes, is then negligible): 2, 4, 8, … elements per link until the
+   last rung's error is within the same budget as the time ladder's.
+3. **Ladder errors** (:func:`ladder_errors`). The limit is Richardson-extrapolated from the
+   last two rungs at order 2; each rung's error is its distance to that limit, the last rung's
+   the larger of its Richardson correction and the previous rung's correction carried one
+   level further, and errors are made non-increasing under refinement so that a rung that
+   happens to sit near a sign change is not trusted. Between rungs the error follows the
+   power law through the two (their observed order); beyond the finest rung it falls at
+   order 2 (:func:`interpolate`): peak stress converges at order 2 in time and between 2 and 3
+   in space (``ced.auto.error_estimate``), so that errs on the safe side. Where the error
+   drops faster than at twice that order between two rungs (a mode resolved in between: the double
+   crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser rung's error
+   holds up to the finer rung.
+4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e from 2, s_r in multiples of 8 from the
+   first rung, both up to the ladders' finest rungs) with E_x + E_t ≤ tolerance /
+   :data:`SAFETY`, by :func:`cost`, a model of
+   the solve time per case fitted to the convergence study's timings (:data:`COST`). The model
+   is the full Euler–Bernoulli mesh or the mesh reduced to :data:`MODES` fixed-interface modes
+   per flexible link plus static load vectors (component-mode synthesis, truncation below 1e-5
+   on the reference four-bar), whichever costs less.
+
+One discretization serves all ``auto`` scenes of a call, the most demanding one's, so that
+they share one time grid (one ``step`` dimension) and batch together. Per case the variable
+``discretization_auto`` (JSON) records the choice, the case's own choice, both ladders, the
+predicted error and whether the tolerance was reachable within the ladders' limits (where it
+was not, the ladders' finest rungs are used and ``status`` has ``tolerance_unmet``). The
+predicted error at the chosen setting is also the case's ``error_estimate``: the ladders are
+its companion solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases).
+"""
+from __future__ import annotations
+
+import copy
+import math
+from typing import Callable
+
+import numpy as np
+
+from .error_estimate import TIME_ORDER
+
+__all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
+           "choose", "cost", "MODES", "SAFETY"]
+
+#: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
+SPACE_ORDER = 3
+
+#: Fixed-interface modes per flexible link of a reduced model.
+MODES = 4
+#: Interior DOFs of a reduced link: MODES modes plus the static load vectors.
+REDUCED_DOFS = MODES + 5
+#: Elements per link of the time ladder.
+LADDER_ELEMENTS = 8
+#: First rung of the time ladder, and the fewest steps per revolution chosen: 8 steps per
+#: period of the 4th crank harmonic.
+FIRST_STEPS = 32
+#: Finest rungs of the ladders (and of the choice): a tolerance they do not reach is flagged.
+MAX_LADDER_STEPS, MAX_LADDER_ELEMENTS = 4096, 128
+#: A mode below this crank harmonic can be resonantly excited: the time ladder resolves it,
+#: ω₁h ≤ RESOLVED (the asymptotic range of the integrators, as in ``ced.auto.error_estimate``).
+RESONANT_HARMONICS, RESOLVED = 16, 0.5
+#: Predicted error must be below tolerance / SAFETY. The rungs' errors are measured against
+#: each ladder's extrapolated limit, which is itself uncertain by up to the last rung's error
+#: (at most tolerance / (2 SAFETY)): the margin covers the two.
+SAFETY = 1.5
+#: Solve time per case, ms, of a batch of 4 on one core (least squares over the convergence
+#: study's Euler–Bernoulli generalized-α settings, the full mesh up to 4 elements and reduced
+#: meshes above; within −20 %/+25 % of the measured time for 90 % of them):
+#: fixed per case, reduction per flexible link at 128 elements (∝ n_e²), per step and flexible
+#: link of a reduced link, and of a full link (constant + per interior DOF).
+COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.018,
+        "step_full_dof": 0.0032}
+_ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
+
+
+def _pilot(scene: dict, elements: int, steps: int) -> dict:
+    out = copy.deepcopy(scene)
+    out["discretization"] = {"formulation": "euler_bernoulli", "elements_per_link": elements,
+                             "elements_across": 2, "modes_per_link": MODES}
+    out["time"]["steps_per_revolution"] = steps
+    if out["time"]["start"] == "periodic" and out["time"]["revolutions"] >= 1.0:
+        out["time"]["revolutions"] = 1.0  # the periodic state: one revolution has every peak
+    out["outputs"] = {**out["outputs"], "every": 1, "error_estimate": False}
+    out["modal"] = None
+    return out
+
+
+def _full_allowed(elements):
+    """The full mesh is no larger than the reduced basis up to 4 elements (3n_e − 3 DOFs)."""
+    return 3 * np.asarray(elements) - 3 <= REDUCED_DOFS
+
+
+def cost(elements, steps, revolutions: float, flexible_links: int):
+    """Modelled solve time per case, ms, and whether the full mesh is the cheaper model.
+
+    Parameters
+    ----------
+    elements, steps : array_like
+        Elements per link and steps per revolution.
+    revolutions : float
+        Simulated input periods.
+    flexible_links : int
+        Number of flexible links of the scene.
+
+    Returns
+    -------
+    cost : ndarray
+        ms per case (:data:`COST`).
+    full : ndarray of bool
+        True where the full mesh is cheaper than the reduced one.
+    """
+    ne = np.asarray(elements, float)
+    steps = np.asarray(steps, float) * revolutions
+    reduced = COST["case"] + flexible_links * (
+        COST["reduction"] * (ne / 128.0) ** 2 + COST["step_reduced"] * steps)
+    full = COST["case"] + flexible_links * steps * (
+        COST["step_full"] + COST["step_full_dof"] * (3.0 * ne - 3.0))
+    reduced = np.where(3 * ne - 3 >= REDUCED_DOFS, reduced, np.inf)
+    full = np.where(_full_allowed(ne), full, np.inf)
+    return np.minimum(reduced, full), full < reduced
+
+
+def ladder_errors(peaks, order: float = TIME_ORDER) -> np.ndarray:
+    """Relative error of each rung of a refinement ladder (the step halved from rung to rung).
+
+    Parameters
+    ----------
+    peaks : array_like, at least 3 values
+        Peak stress at each rung, coarsest first.
+    order : float
+        Convergence order assumed for the extrapolated limit.
+
+    Returns
+    -------
+    ndarray
+        |σ_k − σ_∞|/|σ_∞| with σ_∞ Richardson-extrapolated from the last two rungs; the last
+        rung's the larger of its Richardson correction and the previous one's divided by
+        2^order; non-increasing under refinement (module docstring, stage 3).
+    """
+    sigma = np.asarray(peaks, float)
+    ratio = 2.0**order - 1.0
+    limit = sigma[-1] + (sigma[-1] - sigma[-2]) / ratio
+    error = np.abs(sigma - limit)
+    error[-1] = max(abs(sigma[-1] - sigma[-2]) / ratio,
+                    abs(sigma[-2] - sigma[-3]) / (ratio * 2.0**order))
+    error = np.maximum.accumulate(error[::-1])[::-1]
+    return error / (abs(limit) if limit else 1.0)
+
+
+def interpolate(levels, errors, at, order: float = TIME_ORDER,
+                steepest: float = 4.0**TIME_ORDER) -> np.ndarray:
+    """The error at refinement ``at`` from a ladder's errors (module docstring, stage 3).
+
+    Parameters
+    ----------
+    levels, errors : array_like
+        The ladder's rungs (elements or steps, each twice the previous) and their errors.
+    at : array_like
+        Where the error is wanted.
+    order : float
+        Order at which the error is extrapolated beyond the finest rung (the lowest one
+        expected: the safe side towards finer settings).
+    steepest : float
+        Largest error ratio between neighbouring rungs taken as a power law: that of twice
+        the theoretical order (16 in time, 64 in space).
+
+    Returns
+    -------
+    ndarray
+        Between rungs k and k+1 the power law through e_k and e_{k+1} (the local observed
+        order) where their ratio is at most ``steepest``, else e_k: a steeper drop is
+        pre-asymptotic (a mode resolved between the two rungs) and says nothing about the
+        error in between. Beyond the finest rung e_K (l_K/at)^order; below the coarsest
+        infinite (not measured).
+    """
+    levels, errors = np.asarray(levels, float), np.asarray(errors, float)
+    at = np.asarray(at, float)
+    finer = np.searchsorted(levels, at, side="left").clip(1, len(levels) - 1)
+    e_fine, e_coarse = errors[finer], errors[finer - 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        local = np.log(e_coarse / e_fine) / np.log(levels[finer] / levels[finer - 1])
+        power = e_fine * (levels[finer] / at) ** local
+        asymptotic = e_coarse <= steepest * e_fine
+    between = np.where(asymptotic & (e_fine > 0), power, e_coarse)
+    beyond = errors[-1] * (levels[-1] / at) ** order
+    out = np.where(at >= levels[-1], beyond, np.where(at == levels[finer], e_fine, between))
+    return np.where(at < levels[0], np.inf, out)
+
+
+def predicted_error(space: tuple, time: tuple, elements, steps) -> np.ndarray:
+    """E_x(n_e) + E_t(s_r) from the space and time ladders, each (levels, errors)."""
+    return (interpolate(*space, elements, order=2.0, steepest=4.0**SPACE_ORDER)
+            + interpolate(*time, steps))
+
+
+def choose(space: tuple, time: tuple, tolerance: float, revolutions: float,
+           flexible_links: int) -> tuple[int, int, float, bool]:
+    """The cheapest (elements, steps per revolution) meeting the tolerance.
+
+    Parameters
+    ----------
+    space, time : (levels, errors)
+        The space ladder (elements per link) and the time ladder (steps per revolution) with
+        their errors (:func:`ladder_errors`).
+    tolerance : float
+        Target relative error on peak stress.
+    revolutions : float
+        Simulated input periods.
+    flexible_links : int
+        Number of flexible links.
+
+    Returns
+    -------
+    elements, steps, predicted error, and whether the full mesh is the cheaper model. Where no
+    setting of the grid is predicted to meet the target, the ladders' finest rungs (measured,
+    not extrapolated), with their predicted error.
+    """
+    # Within the ladders: they climb until their finest rungs meet the target with room to
+    # spare, so a setting beyond them is only wanted where they did not converge.
+    steps = np.arange(FIRST_STEPS, int(time[0][-1]) + 1, 8)
+    elements = _ELEMENTS[_ELEMENTS <= space[0][-1]]
+    predicted = predicted_error(space, time, elements[:, None], steps[None, :])
+    model_cost, full = cost(elements[:, None], steps[None, :], revolutions, flexible_links)
+    model_cost = np.where(predicted <= tolerance / SAFETY, model_cost, np.inf)
+    if np.isfinite(model_cost).any():
+        i, j = np.unravel_index(np.argmin(model_cost), model_cost.shape)
+        return int(elements[i]), int(steps[j]), float(predicted[i, j]), bool(full[i, j])
+    elements, steps = int(space[0][-1]), int(time[0][-1])
+    predicted = float(space[1][-1] + time[1][-1])
+    return elements, steps, predicted, bool(cost(elements, steps, revolutions,
+                                                 flexible_links)[1])
+
+
+def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[list, list]],
+            done: Callable[[int, list[float]], bool], limit: int,
+            known: list[dict[int, float]]) -> list[list[float]]:
+    """Peaks of each scene's ladder. Rung r of scene j is (elements[j], steps[j]) =
+    ``rungs(r)``, solved batched over the scenes still climbing until ``done(j, peaks)`` or
+    ``limit`` rungs; ``known[j]`` holds rungs already solved (rung → peak)."""
+    peaks: list[list[float]] = [[] for _ in scenes]
+    climbing = list(range(len(scenes)))
+    for rung in range(limit):
+        elements, steps = rungs(rung)
+        todo = [j for j in climbing if rung not in known[j]]
+        if todo:
+            solved = solve([_pilot(scenes[j], elements[j], steps[j]) for j in todo])["peak"]
+            for j, peak in zip(todo, solved):
+                known[j][rung] = float(peak)
+        for j in climbing:
+            peaks[j].append(known[j][rung])
+        climbing = [j for j in climbing if not done(j, peaks[j])]
+        if not climbing:
+            break
+    return peaks
+
+
+def _flexible_links(scene: dict) -> int:
+    return sum(bool(link["flexible"]) for link in scene["links"].values())
+
+
+def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[dict],
+                                                                          list[dict]]:
+    """Replace ``discretization: auto`` in normalized scenes by a chosen discretization.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes; those with ``discretization == "auto"`` are resolved.
+    solve : callable
+        list of scenes → dict of (case,) arrays: ``peak`` (peak stress, Pa), ``omega1`` (largest
+        first natural frequency over the cycle, rad/s, when the scenes ask for a modal
+        analysis), ``speed`` (rad/s); injected by :mod:`ced.simulation.simulate` so the pilots are
+        batched like any run.
+
+    Returns
+    -------
+    scenes, reports
+        The scenes with the chosen discretization, and per scene a report (empty dict when
+        the scene was not ``auto``).
+    """
+    auto = [i for i, s in enumerate(scenes) if s["discretization"] == "auto"]
+    reports: list[dict] = [{} for _ in scenes]
+    if not auto:
+        return scenes, reports
+    work = [scenes[i] for i in auto]
+    budget = [s["tolerance"] / (2.0 * SAFETY) for s in work]
+
+    # Stage 1: the first rung, with the frozen modal analysis.
+    first = [_pilot(s, LADDER_ELEMENTS, FIRST_STEPS) for s in work]
+    for s in first:
+        s["modal"] = {"modes": 1, "angles": 4, "mode_shapes": False}
+    solved = solve(first)
+    omega1, speed = solved["omega1"], solved["speed"]
+    known = [{0: float(peak)} for peak in solved["peak"]]
+    # The time ladder must resolve a mode the crank harmonics can excite (ω₁h ≤ 1/2).
+    excited = omega1 <= RESONANT_HARMONICS * speed
+    resolved_at = np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0)
+    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
+
+    def time_done(j: int, peaks: list[float]) -> bool:
+        steps = FIRST_STEPS << (len(peaks) - 1)
+        return (len(peaks) >= 3 and steps >= resolved_at[j]
+                and ladder_errors(peaks)[-1] <= budget[j])
+
+    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
+                                                 [FIRST_STEPS << r] * len(work)),
+                         time_done, n_time, known)
+    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
+    time_errors = [ladder_errors(p) for p in time_peaks]
+
+    # Stage 2: the space ladder at the coarsest rung within the tolerance (else the finest).
+    space_steps = []
+    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
+        within = np.flatnonzero(errors <= work[j]["tolerance"])
+        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
+    rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
+    at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
+    known = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
+             for peaks, steps in zip(time_peaks, space_steps)]
+
+    def space_done(j: int, peaks: list[float]) -> bool:
+        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
+
+    space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
+                          space_done, len(rungs_x), known)
+
+    choices, ladders = [], []
+    for j, i in enumerate(auto):
+        scene = scenes[i]
+        space = (np.array(rungs_x[:len(space_peaks[j])], float),
+                 ladder_errors(space_peaks[j], order=2.0))
+        time = (time_levels[j], time_errors[j])
+        elements, steps, predicted, full = choose(
+            space, time, scene["tolerance"], scene["time"]["revolutions"],
+            _flexible_links(scene))
+        choices.append((elements, steps))
+        ladders.append((space, time))
+        reports[i] = {
+            "own_choice": [elements, steps], "own_predicted_error": predicted,
+            "tolerance": scene["tolerance"],
+            "time_ladder": [[int(n), float(e)] for n, e in zip(*time)],
+            "space_ladder": [[int(n), float(e)] for n, e in zip(*space)],
+            "space_ladder_steps_per_revolution": space_steps[j],
+            "first_frequency": float(omega1[j]) / (2.0 * math.pi)}
+    # One discretization for the call, the most demanding case's: the cases then share one
+    # time grid (a dataset has one step dimension) and batch together; every case meets its
+    # tolerance with it.
+    elements = max(e for e, _ in choices)
+    steps = max(s for _, s in choices)
+    flexible = max(_flexible_links(scenes[i]) for i in auto)
+    revolutions = max(scenes[i]["time"]["revolutions"] for i in auto)
+    modes = 0 if bool(cost(elements, steps, revolutions, flexible)[1]) else MODES
+    out = list(scenes)
+    for (space, time), i in zip(ladders, auto):
+        # The case's predicted error at the shared setting: its error estimate (the ladders
+        # are its companions, ``ced.simulation.simulate``).
+        predicted = float(predicted_error(space, time, elements, steps))
+        reports[i].update(predicted_error=predicted,
+                          tolerance_met=bool(predicted <= scenes[i]["tolerance"]))
+        chosen = copy.deepcopy(scenes[i])
+        chosen["discretization"] = {"formulation": "euler_bernoulli",
+                                    "elements_per_link": elements, "elements_across": 2,
+                                    "modes_per_link": modes}
+        chosen["time"]["steps_per_revolution"] = steps
+        out[i] = chosen
+        reports[i].update(elements_per_link=elements, steps_per_revolution=steps,
+                          modes_per_link=modes, formulation="euler_bernoulli")
+    return out, reports

@@ -1,0 +1,278 @@
+"""Per-case discretization error estimates (DESIGN §5 ``error_estimate``).
+
+The estimate is relative, on the case's peak stress (the largest peak over its links). It
+comes from one coarser companion solution and the known convergence orders:
+
+* **Space.** The beams' curvature is recovered from its superconvergent points and converges
+  as O(h³); their axial strain (linear bars) as O(h²); peak stress combines both, so order 2
+  is taken for every formulation (conservative where bending dominates).
+* **Time.** Every integrator is second order (Newmark, HHT, generalized-α, Houbolt); the peak
+  between samples is interpolated (:func:`ced.fem.recovery.peaks`), so it converges smoothly.
+
+The companion halves the steps and coarsens the mesh so that both error parts grow about
+fourfold; then a fine solution σ and its companion σ_c give Richardson's asymptotic error
+|σ − σ_c|/3 whatever the signs of the parts. The estimate is :data:`SAFETY` = 4 times that,
+4|σ − σ_c|/(3σ): a safety factor that keeps it an upper bound when the asymptotic constants
+are only approached (3 left one setting of the convergence study at 0.42 of its true error,
+4 keeps all above 0.5 with 92 % inside [true, 10 × true]).
+
+Richardson's argument needs both solutions in the asymptotic range. Halving the step leaves
+it when the companion would have fewer than :data:`MIN_COMPANION_STEPS` steps per revolution
+(the crank harmonics that carry the load are then under-resolved) or when its ω₁h would cross
+1 while the scene's is below π (the first mode neither resolved nor quasi-static; a strongly
+dissipative scheme such as Houbolt is far from its limit there). The steps are then doubled
+instead (:func:`coarsening_allowed`), at about three times the cost of the scene's solution;
+so is a mesh of four elements or fewer refined rather than coarsened.
+Measured on the convergence study (``config/studies/convergence.yaml``, issue 6): see
+``docs/accuracy.md``.
+
+Not estimated: the modal truncation of ``modes_per_link`` (with static load vectors it is
+below 1e-5 on the reference four-bar even with one mode per link), and model error (beam vs
+plane stress), which the fidelity ladder measures.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from ..response.integrators import amplification_matrix, integrator_for
+
+__all__ = ["Companion", "companions", "coarsening_allowed", "algorithmic_damping", "combine",
+           "error_estimates", "MIN_COMPANION_STEPS", "SPACE_ORDER", "TIME_ORDER", "SAFETY"]
+
+#: Convergence order of peak stress in the element length, per formulation. The beams'
+#: curvature is read at its superconvergent points (O(h³), ced.fem.elements.link.
+#: superconvergent_rows), but their axial strain is that of linear bars, O(h²) even at its
+#: superconvergent midpoints, and peak stress combines both: order 2 is taken (measured: a
+#: bending-dominated crank-rocker converges at 3, the axially loaded double crank at 2). The
+#: plane-stress and seed_lame strains are read at the stations, order 2 as well.
+SPACE_ORDER = {"euler_bernoulli": 2, "timoshenko": 2, "plane_stress": 2, "seed_lame": 2}
+#: Convergence order in the time step (every integrator of ced.response.integrators).
+TIME_ORDER = 2
+#: Factor between the estimate and Richardson's asymptotic error estimate.
+SAFETY = 4.0
+
+
+class Companion(NamedTuple):
+    """A companion discretization of a scene and the factor turning |σ − σ_c|/σ into the
+    estimate's share."""
+
+    scene: dict
+    factor: float
+
+
+def _factor(growth: float) -> float:
+    """SAFETY × Richardson's factor, referred to the scene's own solution.
+
+    ``growth`` is the companion's error over the scene's error, (step ratio)^order: > 1 for
+    a coarser companion (the scene's error is |Δ|/(G − 1)), < 1 for a finer one (the scene's
+    error is |Δ|/(1 − G)).
+    """
+    return SAFETY / abs(growth - 1.0)
+
+
+def _elements_for_growth(ne: int, order: int, growth: float) -> int | None:
+    """The element count n ≠ ne whose error growth (ne/n)^order is nearest ``growth`` (> 1:
+    coarser, < 1: finer), so that space and time errors grow alike; None below 5 elements,
+    where a coarser mesh leaves the asymptotic range (2 and 4 elements gave nearly the same
+    peak stress on the double rocker, whose 4-element error is 0.19 %: the difference
+    understated it 4×) — the mesh is then refined instead, in a separate companion."""
+    if growth > 1 and ne <= 4:
+        return None
+    candidates = np.arange(1, ne) if growth > 1 else np.arange(ne + 1, 8 * ne + 2)
+    best = int(candidates[np.argmin(np.abs(np.log((ne / candidates) ** order / growth)))])
+    return best if best >= 2 else None
+
+
+#: Fewest steps per revolution of a coarser companion: below, the crank harmonics that carry
+#: the load (up to about the 8th) are not in the asymptotic range (measured on the reference
+#: scenes: the error ratio between 32 and 64 steps is 2, not 4).
+MIN_COMPANION_STEPS = 64
+#: Algorithmic damping ratio above which a scheme counts as dissipative at a given ωh, and the
+#: ω₁h its finer companion must then reach (at most 8 times the scene's steps).
+DAMPED = 0.01
+DISSIPATIVE_OMEGA_H = 0.5
+#: Largest ω₁h of a coarser companion whose first mode is resolved; between this and π the
+#: mode is neither resolved nor quasi-static, and halving the step leaves the asymptotic range.
+MAX_COMPANION_OMEGA_H = 1.0
+
+
+def coarsening_allowed(steps: int, omega1_h: float) -> bool:
+    """Whether a companion with half of ``steps`` per revolution stays in the asymptotic range.
+
+    Parameters
+    ----------
+    steps : int
+        The scene's steps per revolution.
+    omega1_h : float
+        First natural frequency × the scene's step, rad per step (0 if unknown).
+    """
+    if steps // 2 < MIN_COMPANION_STEPS:
+        return False
+    # A mode beyond π per step is quasi-static at both step sizes; otherwise it must stay
+    # resolved at the doubled step.
+    return omega1_h >= math.pi or 2.0 * omega1_h <= MAX_COMPANION_OMEGA_H
+
+
+def algorithmic_damping(time_cfg: dict, omega_h: float) -> float:
+    """Algorithmic damping ratio ξ̄ = −ln|λ|/arg λ of the scheme's principal root at ω h
+    (1 where the scheme has no oscillatory root there: the mode is overdamped)."""
+    scheme = integrator_for(time_cfg)
+    W = max(float(omega_h), 1e-6)
+    roots = np.linalg.eigvals(amplification_matrix(scheme, W))
+    # The principal root is the complex one whose phase per step is nearest ωh; spurious roots
+    # are real (possibly negative, phase π).
+    oscillatory = roots[roots.imag > 1e-12 * np.abs(roots)]
+    if not len(oscillatory):
+        return 1.0
+    principal = oscillatory[np.argmin(np.abs(np.angle(oscillatory) - W))]
+    return float(-np.log(np.abs(principal)) / np.abs(np.angle(principal)))
+
+
+def _refinement(time_cfg: dict, omega1_h: float) -> int:
+    """Factor of the steps of a finer companion: 2, or up to 8 for a scheme that damps the
+    first mode at the companion's ω₁h — until ω₁h ≤ :data:`DISSIPATIVE_OMEGA_H` — because a
+    dissipative scheme (Houbolt) stalls on a plateau there: 64 and 128 steps gave the same
+    error (0.69 % and 0.61 %) on the triple-rocker reference, and the difference of the two
+    understated it by 2.4."""
+    factor = 2
+    while (factor < 8 and omega1_h / factor > DISSIPATIVE_OMEGA_H
+           and algorithmic_damping(time_cfg, omega1_h / factor) > DAMPED):
+        factor *= 2
+    return factor
+
+
+def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
+    """Companion discretizations of a normalized scene with an elastic formulation.
+
+    Normally one coarser companion: steps halved, elements reduced so that the space error
+    grows about as much as the time error (4×). Then the difference to the companion is about
+    three times the scene's own error whatever the signs of the two parts, and no cancellation
+    between them can hide in it; the smaller of the two growths sets Richardson's factor,
+    which keeps the estimate conservative when they differ. Where halving the step would leave
+    the asymptotic range (:func:`coarsening_allowed`), two companions instead: the mesh
+    coarsened at the scene's steps, and the steps doubled (up to 8×, for a dissipative scheme
+    that does not resolve ω₁, :func:`_refinement`) on the scene's mesh — about three times the
+    cost of the scene's own solution; their two estimates are added. Modes per link
+    are kept; the companions make no modal analysis.
+
+    Parameters
+    ----------
+    scene : dict
+        Normalized scene (:func:`ced.problem.scene.load_scene`) with ``discretization`` a dict.
+    omega1_h : float
+        First natural frequency × step, rad per step (0 if unknown).
+
+    Returns
+    -------
+    list of Companion (their terms add up)
+    """
+    disc, time = scene["discretization"], scene["time"]
+    ne, spr = disc["elements_per_link"], time["steps_per_revolution"]
+    order = SPACE_ORDER.get(disc["formulation"], 2)
+    every = scene["outputs"]["every"]
+
+    def variant(n_el: int, steps: int) -> dict:
+        out = copy.deepcopy(scene)
+        out["discretization"]["elements_per_link"] = n_el
+        out["time"]["steps_per_revolution"] = steps
+        # Output (and peak sampling) at least as dense in time as the scene's: the same
+        # instants when coarser, every step's worth of the scene's sampling when finer.
+        out["outputs"]["every"] = max(1, every * steps // spr) if steps < spr else every
+        out["modal"] = None  # only the peak stress is compared
+        out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
+        return out
+
+    halve = coarsening_allowed(spr, omega1_h) and (spr // 2) * time["revolutions"] % 1 == 0
+    coarse = _elements_for_growth(ne, order, 4.0)
+    if halve and coarse is not None:
+        growth = min((ne / coarse) ** order, 4.0)
+        return [Companion(variant(coarse, spr // 2), _factor(growth))]
+    # Separately: the mesh coarsened (or, from four elements or fewer, refined) at the scene's
+    # steps, and the steps halved (or refined) on the scene's mesh. Each part is estimated on
+    # its own and the parts are added, so they cannot cancel in the estimate.
+    space = coarse if coarse is not None else 2 * ne
+    steps = spr // 2 if halve else spr * _refinement(time, omega1_h)
+    return [Companion(variant(space, spr), _factor((ne / space) ** order)),
+            Companion(variant(ne, steps), _factor((spr / steps) ** TIME_ORDER))]
+
+
+def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[float]
+            ) -> np.ndarray:
+    """The relative error estimate of each case's peak stress.
+
+    Parameters
+    ----------
+    peak : (case,) peak stress of the scene's own discretization, Pa
+    companion_peaks : list of (case,) arrays, the companions' peak stress, Pa
+    factors : list of float, :attr:`Companion.factor` of each companion
+
+    Returns
+    -------
+    (case,) array, dimensionless; NaN where a companion failed
+    """
+    scale = np.where(np.abs(peak) > 0, np.abs(peak), np.nan)
+    estimate = sum(f * np.abs(peak - c) for c, f in zip(companion_peaks, factors)) / scale
+    return np.where(np.abs(peak) > 0, estimate, 0.0)
+
+
+def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
+                    first_frequency: Callable[[], np.ndarray], step_size: np.ndarray,
+                    solve: Callable[[list[dict]], np.ndarray],
+                    known: dict[int, float] | None = None) -> np.ndarray:
+    """``error_estimate`` of each case from its companion solutions.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        The normalized scenes of the cases.
+    peak : (case,) array
+        Each case's peak stress, Pa (the largest over its links).
+    failed : (case,) bool
+        Failed cases: no estimate (NaN).
+    first_frequency : callable
+        () → (case,) first natural frequency over the cycle, rad/s; called only when a
+        dynamic case needs it (:func:`companions` keeps ω₁h in the asymptotic range).
+    step_size : (case,) array
+        Each case's time step, s.
+    solve : callable
+        list of scenes → (n,) peak stress, Pa, NaN where a companion could not be solved
+        (injected by :mod:`ced.simulation.simulate`, which batches the companions like any run).
+    known : dict, optional
+        case → estimate of cases that already have one (``discretization: auto``'s ladders
+        are their companions).
+
+    Returns
+    -------
+    (case,) array, dimensionless; NaN for failed cases, cases that asked for no estimate or a
+    rigid formulation, and cases whose companions failed (their own results are kept).
+    """
+    known = known or {}
+    wanted = [i for i, s in enumerate(scenes) if s["outputs"]["error_estimate"]
+              and isinstance(s["discretization"], dict)
+              and s["discretization"]["formulation"] != "rigid" and i not in known]
+    estimate = np.full(len(scenes), np.nan)
+    for i, value in known.items():
+        if scenes[i]["outputs"]["error_estimate"]:
+            estimate[i] = value
+    if not wanted:
+        return np.where(failed, np.nan, estimate)
+    dynamic = [i for i in wanted if "elastic_inertia" in scenes[i]["effects"]]
+    omega1_h = np.zeros(len(scenes))
+    if dynamic:
+        omega1 = first_frequency()
+        omega1_h[dynamic] = omega1[dynamic] * step_size[dynamic]
+    plans = {i: companions(scenes[i], float(omega1_h[i])) for i in wanted}
+    terms = np.zeros(len(scenes))
+    for slot in range(max(len(p) for p in plans.values())):
+        cases = [i for i in wanted if len(plans[i]) > slot]
+        companion_peak = solve([plans[i][slot].scene for i in cases])
+        factor = np.array([plans[i][slot].factor for i in cases])
+        terms[cases] += combine(peak[cases], [companion_peak], [1.0]) * factor
+    estimate[wanted] = terms[wanted]
+    estimate[failed] = np.nan
+    return estimate

@@ -1,0 +1,268 @@
+"""Joint coupling of the links: DOF layout and the exact time-varying projection z = P(t) y.
+
+Two coordinate sets (DESIGN §3, thesis II.4 with shared pin displacements instead of the
+thesis's strain-only joint conditions):
+
+* ``z`` — every link's local DOFs in its own rigid-body frame (flexible link: FE nodal DOFs;
+  rigid link: (u0, v0, φ), the small motion of its first end and its small rotation), then
+  the global elastic translation U_J of every joint (2 each; point masses live there);
+* ``y`` — the independent unknowns: joint translation coordinates (a_J, b_J) expressed in the
+  frame of a *host* link, U_J = R(θ_host)(a_J, b_J), then the interior DOFs of flexible links.
+
+Ground pins are fixed, the driven input link is clamped at its ground pivot, the slider moves
+along x only. A rigid link adds inextensibility e_iᵀ(U_s − U_f) = 0; it hosts one of its joints
+so that this constraint solves for that joint's axial coordinate with unit coefficient (never
+ill-conditioned however the links turn). Everything time-dependent is a product of rotations,
+so P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import jets
+from ..problem.mechanism import Topology
+
+__all__ = ["Layout", "build_layout", "projection"]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Which DOFs exist and how they are coupled, identical for every case of a batch.
+
+    Attributes
+    ----------
+    topology : the mechanism's links and joints
+    flexible : link -> bool
+    link_sizes : link -> number of local DOFs (z block size)
+    end_dofs : link -> ((u, v) local indices at the first end, (u, v) at the second end)
+    clamp_dofs : local indices held by the clamp of a flexible input link at its ground pivot
+        (a beam's end rotation; every DOF of a continuum's pivot face)
+    host : joint -> hosting link name, or None for the global frame
+    coordinate_kind : (joint, 0|1) -> "free" | "zero" | "own"
+    constraints : list of (rigid link, "axial" | "clamp", owned (joint, component) )
+    """
+
+    topology: Topology
+    flexible: dict[str, bool]
+    link_sizes: dict[str, int]
+    end_dofs: dict[str, tuple[tuple[int, int], tuple[int, int]]]
+    clamp_dofs: tuple[int, ...]
+    host: dict[str, str | None]
+    coordinate_kind: dict[tuple[str, int], str]
+    constraints: list[tuple[str, str, tuple[str, int]]]
+
+    @property
+    def link_offsets(self) -> dict[str, int]:
+        out, k = {}, 0
+        for name in self.topology.links:
+            out[name] = k
+            k += self.link_sizes[name]
+        return out
+
+    @property
+    def joint_offsets(self) -> dict[str, int]:
+        base = sum(self.link_sizes.values())
+        return {j: base + 2 * i for i, j in enumerate(self.topology.joints)}
+
+    @property
+    def nz(self) -> int:
+        return sum(self.link_sizes.values()) + 2 * len(self.topology.joints)
+
+    @property
+    def free_coordinates(self) -> list[tuple[str, int]]:
+        return [key for key, kind in self.coordinate_kind.items() if kind == "free"]
+
+    @property
+    def interior_dofs(self) -> list[tuple[str, int]]:
+        """(link, local index) of every flexible-link DOF that is its own unknown in y."""
+        out = []
+        for name in self.topology.links:
+            if not self.flexible[name]:
+                continue
+            ends = {i for pair in self.end_dofs[name] for i in pair}
+            for i in range(self.link_sizes[name]):
+                if i in ends or (name == self.topology.input_link and i in self.clamp_dofs):
+                    continue
+                out.append((name, i))
+        return out
+
+    @property
+    def ny(self) -> int:
+        return len(self.free_coordinates) + len(self.interior_dofs)
+
+    def interior_rows(self) -> np.ndarray:
+        """z index of every interior DOF, in y order (after the joint coordinates)."""
+        off = self.link_offsets
+        return np.array([off[name] + i for name, i in self.interior_dofs], int)
+
+    def expand(self, P0: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """z = P y from the joint-coordinate columns ``P0`` (…, nz, nfree) and y (…, ny)."""
+        nfree = P0.shape[-1]
+        z = (P0 @ y[..., :nfree, None])[..., 0]
+        z[..., self.interior_rows()] += y[..., nfree:]
+        return z
+
+    def row_split(self, link: str) -> tuple[list[int], list[int], list[int]]:
+        """(selected local rows, their y columns, varying local rows) of ``link``'s block of P.
+
+        Interior DOFs of a flexible link are unknowns of their own: their rows of P are
+        constant unit rows. Only the other rows (end translations projected from the joints,
+        a rigid link's (u0, v0, φ)) vary in time; assembling Pᵀ A P then needs products with
+        those few rows only.
+        """
+        offset = len(self.free_coordinates)
+        selected = [(i, offset + c) for c, (name, i) in enumerate(self.interior_dofs)
+                    if name == link]
+        rows = [i for i, _ in selected]
+        varying = [i for i in range(self.link_sizes[link]) if i not in set(rows)]
+        return rows, [c for _, c in selected], varying
+
+
+def build_layout(
+    topology: Topology,
+    flexible: dict[str, bool],
+    link_sizes: dict[str, int],
+    end_dofs: dict[str, tuple[tuple[int, int], tuple[int, int]]],
+    clamp_dofs: tuple[int, ...] = (),
+    slider_joint: str | None = None,
+) -> Layout:
+    """Choose hosts and the coordinates that rigid-link constraints eliminate.
+
+    Rigid links attached to the ground are treated first, so that a chain ground → rigid →
+    rigid hosts every joint at the link that constrains it. A closed loop of rigid links (all
+    links rigid) leaves no elastic freedom: every joint coordinate is then fixed.
+    """
+    links, joints = topology.links, topology.joints
+    host: dict[str, str | None] = {}
+    kind: dict[tuple[str, int], str] = {}
+    for j in joints:
+        if j in topology.ground_joints:
+            host[j] = None
+            kind[(j, 0)] = kind[(j, 1)] = "zero"
+    if slider_joint is not None:
+        host[slider_joint] = None  # the guide is parallel to x: U = (X, 0) globally
+        kind[(slider_joint, 0)] = "free"
+        kind[(slider_joint, 1)] = "zero"
+
+    rigid = [n for n in links if not flexible[n]]
+    rigid.sort(key=lambda n: 0 if links[n][0] in topology.ground_joints else 1)
+    constraints = []
+    for name in rigid:
+        first, second = links[name]
+        if name == topology.input_link:
+            # Clamped rigid input link: inextensible and not rotating → its far joint is fixed.
+            if second not in host:
+                host[second] = name
+                kind[(second, 0)] = kind[(second, 1)] = "zero"
+            continue
+        target = next((j for j in (second, first) if j not in host), None)
+        if target is None:
+            continue  # closed rigid loop: handled below by fixing the remaining joints
+        host[target] = name
+        kind[(target, 0)] = "own"
+        kind.setdefault((target, 1), "free")
+        constraints.append((name, "axial", (target, 0)))
+    for j in joints:
+        if j not in host:
+            host[j] = next((n for n in links if j in links[n] and flexible[n]), None)
+            kind[(j, 0)] = kind[(j, 1)] = "free"
+    if not any(flexible.values()):
+        for key in kind:
+            kind[key] = "zero"
+        constraints = []
+    # Order coordinates by joint then component for a stable y layout.
+    kind = {key: kind[key] for key in sorted(kind, key=lambda k: (list(joints).index(k[0]), k[1]))}
+    return Layout(topology, dict(flexible), dict(link_sizes), dict(end_dofs), tuple(clamp_dofs),
+                  host,
+                  kind, constraints)
+
+
+def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], shape) -> dict[str, np.ndarray]:
+    """Rotation jet of each joint's host frame."""
+    eye = jets.constant(np.broadcast_to(np.eye(2), shape + (2, 2)))
+    return {j: (link_rot[h] if h is not None else eye) for j, h in layout.host.items()}
+
+
+def projection(
+    layout: Layout,
+    lengths: np.ndarray,
+    link_angle: np.ndarray,
+    link_velocity: np.ndarray,
+    link_acceleration: np.ndarray,
+) -> np.ndarray:
+    """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
+
+    z = P y where y = (joint coordinates, interior DOFs); the interior columns of P are
+    constant unit columns (each interior DOF is its own z entry), so only the first nfree
+    columns are built; :meth:`Layout.expand` applies the whole P.
+
+    Parameters
+    ----------
+    layout : DOF layout of the batch
+    lengths : (case, link) m
+    link_angle, link_velocity, link_acceleration : (case, step, link) rigid motion
+    """
+    topo = layout.topology
+    shape = link_angle.shape[:2]
+    names = topo.link_names
+    rot = {n: jets.rotation(link_angle[..., i], link_velocity[..., i], link_acceleration[..., i])
+           for i, n in enumerate(names)}
+    frames = _frame_jets(layout, rot, shape)
+    coords = list(layout.coordinate_kind)
+    col = {key: i for i, key in enumerate(coords)}
+    nx = len(coords)
+
+    # U = H x: joint translations from host-frame coordinates, (3, ..., 2·joints, nx).
+    H = np.zeros((3,) + shape + (2 * len(topo.joints), nx))
+    for k, j in enumerate(topo.joints):
+        H[..., 2 * k : 2 * k + 2, col[(j, 0)]] = frames[j][..., :, 0]
+        H[..., 2 * k : 2 * k + 2, col[(j, 1)]] = frames[j][..., :, 1]
+
+    # x = E x_free: zero coordinates vanish, owned ones solve the rigid-link constraints.
+    free = layout.free_coordinates
+    E = np.zeros((3,) + shape + (nx, len(free)))
+    for i, key in enumerate(free):
+        E[0, ..., col[key], i] = 1.0
+    if layout.constraints:
+        rows = np.zeros((3,) + shape + (len(layout.constraints), nx))
+        for r, (name, _, _) in enumerate(layout.constraints):
+            first, second = topo.links[name]
+            e_row = jets.transpose(rot[name][..., :, 0:1])  # e_iᵀ as a (1, 2) jet
+            for joint, sign in ((second, 1.0), (first, -1.0)):
+                k = list(topo.joints).index(joint)
+                rows[..., r : r + 1, :] += sign * jets.matmul(e_row, H[..., 2 * k : 2 * k + 2, :])
+        own = [col[c[2]] for c in layout.constraints]
+        free_cols = [col[key] for key in free]
+        solve = -jets.matmul(jets.inverse(rows[..., own]), rows[..., free_cols])
+        for r, c in enumerate(own):
+            E[..., c, :] = solve[..., r, :]
+    HE = jets.matmul(H, E)  # joint translations from the free coordinates
+
+    P = np.zeros((3,) + shape + (layout.nz, len(free)))
+    joint_index = {j: k for k, j in enumerate(topo.joints)}
+    for j, off in layout.joint_offsets.items():
+        k = joint_index[j]
+        P[..., off : off + 2, : len(free)] = HE[..., 2 * k : 2 * k + 2, :]
+    link_off = layout.link_offsets
+    for i, name in enumerate(names):
+        first, second = topo.links[name]
+        Uf = HE[..., 2 * joint_index[first] : 2 * joint_index[first] + 2, :]
+        Us = HE[..., 2 * joint_index[second] : 2 * joint_index[second] + 2, :]
+        RT = jets.transpose(rot[name])
+        off = link_off[name]
+        if layout.flexible[name]:
+            for end, U in zip(layout.end_dofs[name], (Uf, Us)):
+                local = jets.matmul(RT, U)
+                P[..., off + end[0], : len(free)] = local[..., 0, :]
+                P[..., off + end[1], : len(free)] = local[..., 1, :]
+        else:
+            # Rigid link (u0, v0, φ): first-end motion in the link frame and φ = e⊥ᵀ(Us − Uf)/L.
+            local_f = jets.matmul(RT, Uf)
+            local_s = jets.matmul(RT, Us)
+            L = lengths[:, i][:, None, None]
+            P[..., off, : len(free)] = local_f[..., 0, :]
+            P[..., off + 1, : len(free)] = local_f[..., 1, :]
+            P[..., off + 2, : len(free)] = (local_s[..., 1, :] - local_f[..., 1, :]) / L
+    return P

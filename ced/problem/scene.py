@@ -1,0 +1,446 @@
+"""Scene files: parse, validate and normalize (DESIGN §4).
+
+:func:`load_scene` turns a scene (a YAML file or a mapping) into a new plain nested dict with
+every default filled in, every value checked and every derived quantity (resolved materials,
+section properties) computed. The result holds only dict/list/str/float/int/bool/None, so it is
+JSON-serializable (:func:`dump_scene`, :func:`scene_hash`), and it is valid input again:
+``load_scene(load_scene(x)) == load_scene(x)``.
+
+Any problem raises :class:`SceneError` with the dotted key path of the offending value
+(``links.coupler.section.height``, ``effects[2]``, ``<scene>`` for the document) and a message
+saying what is allowed.
+
+Choices the design leaves open
+------------------------------
+- **YAML dialect.** Scalars are resolved as in YAML 1.2: ``2.1e11`` and ``1e-3`` are floats
+  (PyYAML's YAML 1.1 rules would read them as strings), only ``true``/``false`` are booleans
+  (``yes``/``no``/``on``/``off`` stay strings), no sexagesimal or octal integers. Duplicate
+  keys in a mapping are an error.
+- **Numbers.** ``bool`` is never a number; an ``int`` is accepted for a float; a float with an
+  integral value (``512.0``) is accepted for an integer; NaN/inf are rejected (see
+  :mod:`ced.problem.errors`).
+- **null.** A null *block* (``time:`` with nothing under it, ``links: {crank: }``) means an
+  empty one, i.e. all defaults; ``modal: null`` means no modal analysis; a null *value* where a
+  number, string or list is expected is an error (a forgotten value is not silently replaced).
+- **Unused parameters.** In ``damping`` and ``time``, a parameter that the chosen model or
+  integrator does not use must stay at its default (``{model: modal, alpha: 0.1}`` is an error,
+  it would otherwise silently mean "no Rayleigh damping"). ``drive`` and ``discretization``
+  are lenient (``amplitude`` vs ``initial_angle`` depends on the family, ``elements_across``
+  is only read by ``plane_stress``) so that one base scene serves a whole study.
+- **Links.** The built-in default link is overridden key by key by ``links.default``, which in
+  turn is overridden key by key by each named link; ``material`` and ``section`` are replaced as
+  a whole. Errors in an inherited value are reported at the path where it was written
+  (``links.default.section.height``). Derived material/section entries in the input (as in a
+  normalized scene) must agree with the recomputed ones.
+- **Limits.** elements_per_link ≤ 512, elements_across ≤ 64, steps_per_revolution ≤ 10⁶,
+  at most 10⁹ steps in total, modal modes ≤ 1000 and angles ≤ 100000, output stations ≤ 10001.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import Bool, Choice, Int, Real, SceneError, Text, check_keys, join
+from .materials import resolve_material, section_properties
+
+__all__ = [
+    "SceneError",
+    "load_scene",
+    "dump_scene",
+    "scene_hash",
+    "EFFECTS",
+    "DEFAULT_EFFECTS",
+    "FORMULATIONS",
+    "INTEGRATORS",
+    "MECHANISM_TYPES",
+    "SCENE_KEYS",
+]
+
+# ------------------------------------------------------------------------------ vocabulary
+#: Every effect, in canonical order (normalized ``effects`` lists follow it).
+EFFECTS = ("inertia", "elastic_inertia", "gravity", "coriolis", "centrifugal",
+           "axial_stiffening", "damping")
+DEFAULT_EFFECTS = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening"]
+FORMULATIONS = ("euler_bernoulli", "timoshenko", "seed_lame", "plane_stress", "rigid")
+INTEGRATORS = ("newmark", "hht", "generalized_alpha", "houbolt")
+STARTS = ("undeformed", "quasi_static", "periodic")
+MECHANISM_TYPES = ("four_bar", "slider_crank", "single_link")
+AUTO = "auto"
+
+#: Top-level keys, in the order of the normalized scene.
+SCENE_KEYS = ("name", "mechanism", "links", "point_masses", "drive", "effects", "gravity",
+              "damping", "discretization", "time", "modal", "outputs", "tolerance")
+
+#: The link every scene starts from (DESIGN §4).
+BUILTIN_LINK = {"material": "steel",
+                "section": {"shape": "rectangle", "height": 0.005, "width": 0.01},
+                "flexible": True}
+LINK_KEYS = ("material", "section", "flexible")
+
+MAX_TOTAL_STEPS = 10**9
+
+
+class _Required:
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED = _Required()
+
+# ------------------------------------------------------------------------- declarative spec
+# A block is {key: (check, default)}; a check is a callable (value, path) -> normalized value
+# with a describe() method for messages (see ced.problem.errors).
+_LENGTH = Real(low=0.0, low_open=True, unit="m")
+_BRANCH = Choice(("open", "crossed"))
+_NONNEG = Real(low=0.0)
+
+MECHANISM_FIELDS: dict[str, dict[str, tuple[Any, Any]]] = {
+    "four_bar": {
+        "ground": (_LENGTH, REQUIRED),
+        "crank": (_LENGTH, REQUIRED),
+        "coupler": (_LENGTH, REQUIRED),
+        "rocker": (_LENGTH, REQUIRED),
+        "branch": (_BRANCH, "open"),
+    },
+    "slider_crank": {
+        "crank": (_LENGTH, REQUIRED),
+        "rod": (_LENGTH, REQUIRED),
+        "offset": (Real(unit="m"), 0.0),
+        "slider_mass": (Real(low=0.0, unit="kg"), 0.0),
+        "branch": (_BRANCH, "open"),
+    },
+    "single_link": {
+        "length": (_LENGTH, REQUIRED),
+    },
+}
+
+BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
+    "drive": {
+        "speed": (Real(low=0.0, low_open=True, unit="rad/s"), 100.0),
+        "initial_angle": (Real(unit="rad"), 0.0),
+        "amplitude": (Real(low=0.0, high=1.0, low_open=True,
+                           unit="fraction of the input's feasible half-range"), 0.8),
+    },
+    "damping": {
+        "model": (Choice(("modal", "rayleigh")), "modal"),
+        "ratio": (Real(low=0.0, unit="fraction of critical damping"), 0.0),
+        "alpha": (Real(low=0.0, unit="1/s, mass-proportional"), 0.0),
+        "beta": (Real(low=0.0, unit="s, stiffness-proportional"), 0.0),
+    },
+    "discretization": {
+        "formulation": (Choice(FORMULATIONS), "euler_bernoulli"),
+        "elements_per_link": (Int(1, 512), 8),
+        "elements_across": (Int(1, 64, hint="plane_stress only"), 2),
+        "modes_per_link": (Int(0, 512, hint="0 keeps every FE DOF; n > 0 reduces each "
+                               "flexible link to n fixed-interface modes plus static load "
+                               "vectors"), 0),
+    },
+    "time": {
+        "revolutions": (Real(low=0.0, low_open=True, unit="input periods"), 2.0),
+        "steps_per_revolution": (Int(8, 1_000_000), 512),
+        "integrator": (Choice(INTEGRATORS), "generalized_alpha"),
+        "rho_inf": (Real(low=0.0, high=1.0), 0.9),
+        "beta": (Real(low=0.0, high=0.5), 0.25),
+        "gamma": (Real(low=0.5, high=1.0), 0.5),
+        "alpha": (Real(low=-1.0 / 3.0, high=0.0), -0.05),
+        "start": (Choice(STARTS), "undeformed"),
+    },
+    "modal": {
+        "modes": (Int(1, 1000), 6),
+        "angles": (Int(1, 100_000), 36),
+        "mode_shapes": (Bool(), False),
+    },
+    "outputs": {
+        "stations": (Int(3, 10_001, odd=True, hint="odd so that 0.5 is a station"), 11),
+        "every": (Int(1, None, hint="write every n-th step"), 1),
+        "error_estimate": (Bool(), True),
+    },
+}
+
+#: Parameters used only by one choice of a selector key: block -> (selector, {choice: params}).
+MODEL_PARAMETERS = {
+    "damping": ("model", {"modal": ("ratio",), "rayleigh": ("alpha", "beta")}),
+    "time": ("integrator", {"newmark": ("beta", "gamma"), "hht": ("alpha",),
+                            "generalized_alpha": ("rho_inf",), "houbolt": ()}),
+}
+
+_POINT_MASS = Real(low=0.0, unit="kg")
+_GRAVITY = Real(unit="m/s^2")
+_TOLERANCE = Real(low=0.0, high=1.0, low_open=True, high_open=True, unit="relative error")
+
+
+# ---------------------------------------------------------------------------------- YAML
+class _Loader(yaml.SafeLoader):
+    """SafeLoader with YAML 1.2 core-schema numbers/booleans and duplicate-key detection."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = set()
+            for key_node, _ in node.value:
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
+                    key = (key_node.tag, key_node.value)
+                    if key in seen:
+                        raise yaml.constructor.ConstructorError(
+                            "while constructing a mapping", node.start_mark,
+                            f"found duplicate key {key_node.value!r}", key_node.start_mark)
+                    seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
+_BOOL_TAG, _INT_TAG, _FLOAT_TAG = (f"tag:yaml.org,2002:{t}" for t in ("bool", "int", "float"))
+_Loader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers if tag not in (_BOOL_TAG, _INT_TAG, _FLOAT_TAG)]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Loader.add_implicit_resolver(
+    _BOOL_TAG, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
+_Loader.add_implicit_resolver(
+    _INT_TAG, re.compile(r"^[-+]?(?:0|[1-9][0-9]*)$"), list("-+0123456789"))
+_Loader.add_implicit_resolver(
+    _FLOAT_TAG,
+    re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+               r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+    list("-+0123456789."))
+
+
+def _read_yaml(path: Path) -> Any:
+    hint = "pass the path of a YAML scene file or a mapping (YAML text is not accepted)"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, ValueError) as exc:  # ValueError: embedded NUL, undecodable bytes
+        raise SceneError("<scene>", f"cannot read {str(path)[:200]!r}: {exc}; {hint}") from None
+    stream = io.StringIO(text)
+    stream.name = str(path)  # PyYAML puts the stream's name into its error marks
+    try:
+        return yaml.load(stream, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        raise SceneError("<scene>", f"invalid YAML: {exc}") from None
+    except RecursionError:
+        raise SceneError("<scene>", f"invalid YAML: {path} is nested too deeply") from None
+
+
+# ------------------------------------------------------------------------------- checks
+def _block(value: Any, path: str, fields: Mapping[str, tuple[Any, Any]]) -> dict:
+    """Validate a mapping against a block spec and fill its defaults."""
+    value = {} if value is None else value
+    check_keys(value, path, tuple(fields))
+    out = {}
+    for key, (check, default) in fields.items():
+        sub = f"{path}.{key}"
+        if key in value:
+            out[key] = check(value[key], sub)
+        elif default is REQUIRED:
+            raise SceneError(sub, f"missing; required: {check.describe()}")
+        else:
+            out[key] = default
+    return out
+
+
+def _unused_parameters(block: dict, name: str) -> None:
+    """Parameters of another model/integrator must stay at their defaults."""
+    selector, params = MODEL_PARAMETERS[name]
+    chosen = block[selector]
+    for key, (_, default) in BLOCKS[name].items():
+        users = [choice for choice, keys in params.items() if key in keys]
+        if users and chosen not in users and block[key] != default:
+            raise SceneError(
+                f"{name}.{key}",
+                f"is only used with {selector} {join(users)}, but {name}.{selector} is "
+                f"{chosen!r} (which uses: {join(params[chosen]) or 'no parameters'}); "
+                f"remove it or leave it at its default {default!r}")
+
+
+def _mechanism(value: Any) -> dict:
+    if not isinstance(value, Mapping):
+        raise SceneError("mechanism", f"must be a mapping with type ({join(MECHANISM_TYPES)}) "
+                                      f"and its lengths; got {value!r:.60}")
+    if value.get("type") is None:
+        raise SceneError("mechanism.type", f"missing; allowed: {join(MECHANISM_TYPES)}")
+    kind = Choice(MECHANISM_TYPES)(value["type"], "mechanism.type")
+    fields = MECHANISM_FIELDS[kind]
+    check_keys(value, "mechanism", ("type",) + tuple(fields))
+    rest = {k: v for k, v in value.items() if k != "type"}
+    return {"type": kind, **_block(rest, "mechanism", fields)}
+
+
+def _assembly(mechanism: dict) -> None:
+    from .mechanism import assembly_error  # lazy: mechanism imports numpy
+
+    try:
+        message = assembly_error(mechanism)
+    except (ArithmeticError, ValueError) as exc:
+        message = f"cannot be assembled ({exc})"
+    if message:
+        raise SceneError("mechanism", message)
+
+
+def _links(value: Any, names: tuple[str, ...]) -> dict:
+    """Merge built-in default, ``links.default`` and each named link; resolve and validate.
+
+    Each resolved value is validated at the path where it was written.
+    """
+    value = {} if value is None else value
+    check_keys(value, "links", ("default",) + names, what="link")
+    entries = {}
+    for key in ("default",) + names:
+        entry = {} if value.get(key) is None else value[key]
+        entries[key] = dict(check_keys(entry, f"links.{key}", LINK_KEYS))
+
+    # field -> (raw value, path where it was written)
+    default = {f: (BUILTIN_LINK[f], f"links.default.{f}") for f in LINK_KEYS}
+    default.update({f: (v, f"links.default.{f}") for f, v in entries["default"].items()})
+
+    out = {}
+    for key in ("default",) + names:
+        merged = dict(default)
+        if key != "default":
+            merged.update({f: (v, f"links.{key}.{f}") for f, v in entries[key].items()})
+        material = resolve_material(*merged["material"])
+        section = section_properties(merged["section"][0], material["nu"], merged["section"][1])
+        flexible = Bool()(*merged["flexible"])
+        if key != "default":
+            out[key] = {"material": material, "section": section, "flexible": flexible}
+    return out
+
+
+def _point_masses(value: Any, joints: tuple[str, ...]) -> dict:
+    value = {} if value is None else value
+    check_keys(value, "point_masses", joints, what="joint")
+    return {j: _POINT_MASS(value[j], f"point_masses.{j}") for j in joints if j in value}
+
+
+def _effects(value: Any) -> list[str] | str:
+    if isinstance(value, str) and value == AUTO:
+        return AUTO
+    allowed = f"a list of distinct names from {join(EFFECTS)}, or {AUTO!r}"
+    if not isinstance(value, (list, tuple)):
+        raise SceneError("effects", f"must be {allowed}; got {value!r:.60}")
+    seen: set[str] = set()
+    for i, item in enumerate(value):
+        if not isinstance(item, str) or item not in EFFECTS:
+            raise SceneError(f"effects[{i}]", f"unknown effect {item!r:.60}; allowed: "
+                                              f"{join(EFFECTS)} (or effects: {AUTO})")
+        if item in seen:
+            raise SceneError(f"effects[{i}]", f"duplicate effect {item!r}; each effect may be "
+                                              f"listed once, from: {join(EFFECTS)}")
+        seen.add(item)
+    return [e for e in EFFECTS if e in seen]
+
+
+def _gravity(value: Any) -> list[float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError("gravity", f"must be a list [gx, gy] of two finite numbers (m/s^2); "
+                                    f"got {value!r:.60}")
+    return [_GRAVITY(g, f"gravity[{i}]") for i, g in enumerate(value)]
+
+
+def _time(value: Any) -> dict:
+    block = _block(value, "time", BLOCKS["time"])
+    _unused_parameters(block, "time")
+    total = block["revolutions"] * block["steps_per_revolution"]
+    if not (math.isfinite(total) and 1 <= round(total) <= MAX_TOTAL_STEPS):
+        raise SceneError("time.revolutions", f"revolutions × steps_per_revolution = {total:g} "
+                                             f"steps; allowed: 1 to {MAX_TOTAL_STEPS:g} steps")
+    return block
+
+
+def _normalize(raw: Any) -> dict:
+    if not isinstance(raw, Mapping):
+        kind = "empty" if raw is None else type(raw).__name__
+        raise SceneError("<scene>", f"the top level must be a mapping with keys from "
+                                    f"{join(SCENE_KEYS)}; got {kind}")
+    check_keys(raw, "", SCENE_KEYS)
+    if raw.get("mechanism") is None:
+        raise SceneError("mechanism", f"missing; required: a mapping with type "
+                                      f"({join(MECHANISM_TYPES)}) and its lengths")
+    from .mechanism import topology
+
+    mechanism = _mechanism(raw["mechanism"])
+    topo = topology(mechanism["type"])
+
+    scene: dict[str, Any] = {"name": Text()(raw.get("name", ""), "name"), "mechanism": mechanism}
+    scene["links"] = _links(raw.get("links"), tuple(topo.link_names))
+    scene["point_masses"] = _point_masses(raw.get("point_masses"), tuple(topo.joint_names))
+    scene["drive"] = _block(raw.get("drive"), "drive", BLOCKS["drive"])
+    scene["effects"] = _effects(raw["effects"]) if "effects" in raw else list(DEFAULT_EFFECTS)
+    scene["gravity"] = _gravity(raw["gravity"]) if "gravity" in raw else [0.0, -9.81]
+    scene["damping"] = _block(raw.get("damping"), "damping", BLOCKS["damping"])
+    _unused_parameters(scene["damping"], "damping")
+    disc = raw.get("discretization")
+    scene["discretization"] = AUTO if isinstance(disc, str) and disc == AUTO else _block(disc, "discretization",
+                                                               BLOCKS["discretization"])
+    time = raw.get("time")
+    if (isinstance(scene["discretization"], dict)
+            and scene["discretization"]["formulation"] == "seed_lame"
+            and not (isinstance(time, Mapping) and "integrator" in time)):
+        # The thesis recommends Houbolt's scheme for its model (III.2.4): its default there.
+        time = {**(time or {}), "integrator": "houbolt"} if not isinstance(time, str) else time
+    scene["time"] = _time(time)
+    modal = raw.get("modal")
+    scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
+    scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])
+    scene["tolerance"] = _TOLERANCE(raw["tolerance"], "tolerance") if "tolerance" in raw \
+        else 1e-3
+    _assembly(mechanism)
+    return scene
+
+
+# ------------------------------------------------------------------------------- public
+def load_scene(source: str | os.PathLike | Mapping) -> dict:
+    """Load, validate and normalize a scene.
+
+    Parameters
+    ----------
+    source : str, os.PathLike or mapping
+        Path of a YAML scene file, or the scene as a mapping (for example an already
+        normalized scene). A YAML *string* is not accepted: a ``str`` is always a path.
+
+    Returns
+    -------
+    dict
+        A new plain dict with every key of DESIGN §4 present (``modal`` is None when no modal
+        analysis is asked for), defaults filled, ``effects`` in canonical order, materials
+        resolved (:func:`ced.problem.materials.resolve_material`) and section properties computed
+        (:func:`ced.problem.materials.section_properties`) for every link of the mechanism.
+
+    Raises
+    ------
+    SceneError
+        With the dotted key path of the first problem found and what is allowed there.
+
+    Examples
+    --------
+    >>> s = load_scene({"mechanism": {"type": "single_link", "length": 0.5}})
+    >>> s["links"]["link"]["material"]["name"], s["time"]["integrator"]
+    ('steel', 'generalized_alpha')
+    >>> load_scene(s) == s
+    True
+    """
+    if isinstance(source, Mapping):
+        raw = source
+    elif isinstance(source, (str, os.PathLike)):
+        raw = _read_yaml(Path(source))
+    else:
+        raise SceneError("<scene>", f"must be the path of a YAML scene file or a mapping; "
+                                    f"got {type(source).__name__}")
+    return _normalize(raw)
+
+
+def dump_scene(scene: Mapping) -> str:
+    """Canonical JSON of a (normalized) scene: sorted keys, compact separators, no NaN."""
+    return json.dumps(scene, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      allow_nan=False)
+
+
+def scene_hash(scene: Mapping) -> str:
+    """First 12 hex digits of the SHA-1 of :func:`dump_scene` (pass a normalized scene)."""
+    return hashlib.sha1(dump_scene(scene).encode("utf-8")).hexdigest()[:12]

@@ -1,0 +1,50 @@
+"""Status flags of a case: what ced reports about the credibility of each result.
+
+A case's ``status`` is a bit field (CF ``flag_masks``); ``ok`` is the absence of every bit.
+The rigid analysis sets ``near_singular``; the elastic response sets ``large_deflection``,
+``resonant``, ``parametrically_unstable`` and ``buckled``; ``discretization: auto`` sets
+``tolerance_unmet``; a case that raises is ``failed``.
+
+Examples
+--------
+>>> status_code(["resonant", "large_deflection"])
+5
+>>> status_names(5), status_names(0)
+(['large_deflection', 'resonant'], ['ok'])
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+__all__ = ["STATUS_FLAGS", "status_code", "status_names"]
+
+#: Bit of each status flag; "ok" is the absence of every other bit (CF flag_masks+flag_values).
+STATUS_FLAGS = {
+    "large_deflection": 1,
+    "near_singular": 2,
+    "resonant": 4,
+    "parametrically_unstable": 8,
+    "failed": 16,
+    "not_assemblable": 32,
+    # The frozen structure K_eff has a negative eigenvalue at some phase (a link compressed
+    # beyond its Euler load, or centrifugal softening of a near-mechanism mode): reported as
+    # a negative natural_frequency, −√|λ|/2π (ced.fem.modal, ced.response.frequencies).
+    "buckled": 64,
+    # discretization: auto could not reach the scene's tolerance within its ladders' limits
+    # (ced.auto.discretization): the error estimate says by how much.
+    "tolerance_unmet": 128,
+}
+
+
+def status_code(flags: Iterable[str]) -> int:
+    """Combine flag names into a status code (0 is ok)."""
+    code = 0
+    for name in flags:
+        code |= STATUS_FLAGS[name]
+    return code
+
+
+def status_names(code: int) -> list[str]:
+    """Flag names set in a status code; ``["ok"]`` for 0."""
+    names = [n for n, bit in STATUS_FLAGS.items() if code & bit]
+    return names or ["ok"]

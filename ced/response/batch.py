@@ -1,0 +1,173 @@
+"""From normalized scenes to batched case parameters: family, drive, time grid, mass properties.
+
+A *batch* is a set of cases that share a structure (mechanism type, number of steps, output
+stations, discretization), so that every array has leading dimensions (case, step) and the
+solvers run vectorized across cases.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..problem.mechanism import classify, input_limits, topology
+from ..rigid import kinematics
+from ..rigid.inverse_dynamics import BodyProperties
+
+__all__ = ["Batch", "make_batch", "structure_key", "case_family", "step_count"]
+
+
+def case_family(scene: dict) -> str:
+    """Family of the scene's mechanism (Grashof class, ``slider_crank`` or ``single_link``)."""
+    mech = scene["mechanism"]
+    if mech["type"] == "four_bar":
+        return classify(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
+    return mech["type"]
+
+
+def step_count(scene: dict) -> int:
+    """Number of time steps of a scene: revolutions × steps per revolution (each input period
+    2π/Ω divided evenly; the step size is :attr:`Batch.step_size`)."""
+    t = scene["time"]
+    return int(round(t["revolutions"] * t["steps_per_revolution"]))
+
+
+def structure_key(scene: dict) -> tuple:
+    """Scenes with equal keys can be solved in one vectorized batch."""
+    n_steps = step_count(scene)
+    disc = scene["discretization"]
+    return (
+        scene["mechanism"]["type"],
+        n_steps,
+        scene["outputs"]["every"],
+        scene["outputs"]["stations"],
+        repr(disc),
+        tuple(link["flexible"] for link in scene["links"].values()),
+        repr(scene["effects"]),
+        repr(scene["time"]),
+        repr(scene.get("modal")),
+    )
+
+
+@dataclass
+class Batch:
+    """Per-case parameters of a batch of structurally identical scenes."""
+
+    scenes: list[dict]
+    families: list[str]
+    mechanism_type: str
+    n_steps: int
+    step_size: np.ndarray  # (case,) s
+    speed: np.ndarray  # (case,) rad/s
+    initial_angle: np.ndarray  # (case,) rad: θ0, or θ_mid for an oscillating input
+    amplitude: np.ndarray  # (case,) rad, NaN for a rotating input
+    branch: np.ndarray  # (case,) ±1
+    lengths: dict[str, np.ndarray] = field(default_factory=dict)  # mechanism block, m
+    bodies: BodyProperties | None = None
+    gravity: np.ndarray | None = None  # (case, 2) m/s²
+
+    @property
+    def size(self) -> int:
+        return len(self.scenes)
+
+    @property
+    def topology(self):
+        return topology(self.mechanism_type)
+
+    @property
+    def link_lengths(self) -> np.ndarray:
+        """(case, link) m."""
+        single = self.mechanism_type == "single_link"
+        return np.stack([self.lengths["length" if single else name]
+                         for name in self.topology.links], axis=1)
+
+    def link_property(self, link: str, group: str, key: str) -> np.ndarray:
+        """A ``material`` or ``section`` value of ``link`` for every case, (case,); e.g.
+        ``link_property("coupler", "material", "E")`` in Pa."""
+        return np.array([s["links"][link][group][key] for s in self.scenes], float)
+
+    def time(self) -> np.ndarray:
+        """(case, step) s."""
+        return self.step_size[:, None] * np.arange(self.n_steps + 1)[None, :]
+
+    def rigid_motion(self, times: np.ndarray | None = None) -> kinematics.RigidMotion:
+        """Rigid motion on the step grid, or at arbitrary ``times`` (case, n) s."""
+        times = self.time() if times is None else times
+        motion = kinematics.input_motion(times, self.speed, self.initial_angle, self.amplitude)
+        L = self.lengths
+        if self.mechanism_type == "four_bar":
+            return kinematics.four_bar(
+                L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch)
+        if self.mechanism_type == "slider_crank":
+            return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion, self.branch)
+        return kinematics.single_link(L["length"], motion)
+
+
+_LENGTH_KEYS = {
+    "four_bar": ("ground", "crank", "coupler", "rocker"),
+    "slider_crank": ("crank", "rod", "offset"),
+    "single_link": ("length",),
+}
+
+
+def _drive(scene: dict, family: str) -> tuple[float, float]:
+    """(initial angle, amplitude) of the input: rotation from θ0, or θ_mid + A sin(Ωt) with A a
+    fraction of the feasible half-range for rocker-input families (DESIGN §3)."""
+    drive, mech = scene["drive"], scene["mechanism"]
+    if mech["type"] != "four_bar":
+        return drive["initial_angle"], math.nan
+    limits = input_limits(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
+    if limits.full_rotation:
+        return drive["initial_angle"], math.nan
+    return limits.mid, drive["amplitude"] * limits.half_range
+
+
+def _body_properties(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyProperties:
+    """Link mass ρAL and centroidal inertia mL²/12 + ρL·I_section (the section term is the
+    in-plane second moment, e.g. m h²/12 for a rectangle of in-plane height h)."""
+    topo = topology(scenes[0]["mechanism"]["type"])
+    mass = np.zeros((len(scenes), len(topo.links)))
+    inertia = np.zeros_like(mass)
+    point = np.zeros((len(scenes), len(topo.joints)))
+    slider = np.zeros(len(scenes))
+    for c, scene in enumerate(scenes):
+        mech = scene["mechanism"]
+        for i, name in enumerate(topo.links):
+            link = scene["links"][name]
+            L = mech["length"] if mech["type"] == "single_link" else mech[name]
+            rho = link["material"]["rho"]
+            mass[c, i] = rho * link["section"]["area"] * L
+            inertia[c, i] = mass[c, i] * L * L / 12.0 + rho * L * link["section"]["second_moment"]
+        for k, joint in enumerate(topo.joints):
+            point[c, k] = scene["point_masses"].get(joint, 0.0)
+        slider[c] = mech.get("slider_mass", 0.0)
+    return BodyProperties(mass, inertia, point, slider)
+
+
+def make_batch(scenes: list[dict]) -> Batch:
+    """Collect the per-case parameters of structurally identical normalized scenes."""
+    kind = scenes[0]["mechanism"]["type"]
+    families = [case_family(s) for s in scenes]
+    drives = [_drive(s, f) for s, f in zip(scenes, families)]
+    lengths = {
+        key: np.array([s["mechanism"][key] for s in scenes], float) for key in _LENGTH_KEYS[kind]
+    }
+    speed = np.array([s["drive"]["speed"] for s in scenes], float)
+    steps_per_revolution = np.array([s["time"]["steps_per_revolution"] for s in scenes], float)
+    return Batch(
+        scenes=scenes,
+        families=families,
+        mechanism_type=kind,
+        n_steps=step_count(scenes[0]),
+        step_size=2.0 * math.pi / speed / steps_per_revolution,
+        speed=speed,
+        initial_angle=np.array([d[0] for d in drives]),
+        amplitude=np.array([d[1] for d in drives]),
+        branch=np.array(
+            [1.0 if s["mechanism"].get("branch", "open") == "open" else -1.0 for s in scenes]),
+        lengths=lengths,
+        bodies=_body_properties(scenes, lengths),
+        gravity=np.array(
+            [s["gravity"] if "gravity" in s["effects"] else (0.0, 0.0) for s in scenes], float),
+    )

@@ -1,0 +1,161 @@
+"""The elastic response of a batch: start, march, recover, flag (DESIGN §3).
+
+Integrates the KED model (:mod:`ced.response.model`) from the requested start state
+(``undeformed``, ``quasi_static`` or the exact ``periodic`` steady state of
+:mod:`ced.response.periodic`), recovers deflections, strains and stresses at the stations
+(:mod:`ced.fem.recovery`) beside the quasi-static response for the dynamic amplification,
+runs the modal analysis over the cycle (:mod:`ced.response.frequencies`) and sets the elastic
+status flags. Everything is vectorized across the cases of the batch.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..fem.recovery import link_fields, peaks
+from ..problem.mechanism import near_singular
+from ..problem.status import STATUS_FLAGS
+from .batch import Batch
+from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
+from .integrators import forced_columns, from_independent, integrator_for, march, start
+from .model import Model, StepTerms, build_model, terms_at
+from .periodic import INSTABILITY_MARGIN, shoot
+
+__all__ = ["elastic_response", "LARGE_DEFLECTION"]
+
+#: Deflection / link length above which the linear model's validity is flagged.
+LARGE_DEFLECTION = 0.01
+
+
+def _near_singular(batch: Batch) -> np.ndarray:
+    """(case,) bool: :func:`ced.problem.mechanism.near_singular` for four-bars; other
+    mechanisms have no dyad that can fold."""
+    if batch.mechanism_type != "four_bar":
+        return np.zeros(batch.size, bool)
+    L = batch.lengths
+    return near_singular(L["ground"], L["crank"], L["coupler"], L["rocker"],
+                         batch.initial_angle, batch.amplitude)
+
+
+def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
+    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
+
+    ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
+    elastic ones (resonant, parametrically_unstable, large_deflection, near_singular where the
+    pin-jointed structure loses its stiffness, buckled).
+    """
+    model = build_model(batch)
+    scene = batch.scenes[0]
+    check_modes(scene, model.layout.ny)
+    status = status.copy()
+    status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
+    result: dict[str, np.ndarray] = {}
+    qz, qz_static = _response(model, status, result)
+    result.update(_recover(model, qz, qz_static))
+    relative = result["peak_deflection"] / batch.link_lengths
+    status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
+    modal = scene.get("modal")
+    if modal and model.layout.ny:
+        freq = cycle_frequencies(model, modal_phases(modal["angles"]), modal["modes"])
+        result["natural_frequency"] = freq
+        status[buckled(freq)] |= STATUS_FLAGS["buckled"]
+    if scene["discretization"]["formulation"] == "seed_lame":
+        # The thesis's wave analysis (III.3.1.a), reported per link material.
+        for key, name in (("c1", "longitudinal_wave_speed"), ("c2", "transverse_wave_speed")):
+            result[name] = np.stack([batch.link_property(link, "material", key)
+                                     for link in batch.topology.links], axis=1)
+    result["status"] = status
+    return result
+
+
+def _response(model: Model, status: np.ndarray, result: dict):
+    """Joint and link displacements z at the output steps, dynamic and quasi-static
+    (case, out_step, nz); adds the Floquet results of a periodic start to ``result``."""
+    batch, layout = model.batch, model.layout
+    scene = batch.scenes[0]
+    ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
+    out_steps = np.arange(0, n_steps + 1, scene["outputs"]["every"])
+    qz = np.zeros((ncase, len(out_steps), layout.nz))
+    qz_static = np.zeros_like(qz)
+    if not ny:
+        return qz, qz_static
+    cache = StepTerms(model, h, n_steps)
+
+    def static(j):
+        K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
+        return layout.expand(cache.P[:, j], np.linalg.solve(K, F[..., None])[..., 0])
+
+    if "elastic_inertia" not in model.effects:  # quasi-static: K q = F at each instant
+        for i, k in enumerate(out_steps):
+            qz[:, i] = static(cache.load(k))
+        return qz, qz
+
+    time_cfg = scene["time"]
+    scheme = integrator_for(time_cfg)
+    if time_cfg["start"] == "periodic":
+        periodic, mu, resonant = shoot(scheme, cache, h, time_cfg["steps_per_revolution"],
+                                       ny, ncase)
+        cache = StepTerms(model, h, n_steps)
+        terms = forced_columns(cache, 1)
+        state = from_independent(terms, scheme, *periodic)
+        largest = np.abs(mu).max(axis=-1)
+        result["floquet_multiplier_max"] = largest
+        status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
+        status[resonant] |= STATUS_FLAGS["resonant"]
+    else:
+        q0 = np.zeros((ncase, ny, 1))
+        v0 = np.zeros_like(q0)
+        if time_cfg["start"] == "quasi_static":
+            q0, v0 = _quasi_static_start(model, h)
+        terms = forced_columns(cache, 1)
+        state = start(terms, q0, v0)
+
+    out_index = {int(k): i for i, k in enumerate(out_steps)}
+
+    def record(k, st):
+        i = out_index.get(k)
+        if i is not None:
+            j = cache.load(k)
+            qz[:, i] = layout.expand(cache.P[:, j], st.q[..., 0])
+            qz_static[:, i] = static(j)
+
+    march(scheme, terms, h, n_steps, state, record)
+    return qz, qz_static
+
+
+def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray) -> dict[str, np.ndarray]:
+    """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification."""
+    batch, layout = model.batch, model.layout
+    topo = layout.topology
+    ncase, nout = qz.shape[:2]
+    shape = (ncase, nout, len(topo.links), len(model.stations))
+    fields = {name: np.zeros(shape) for name in
+              ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")}
+    static_deflection = np.zeros(shape)
+    offsets = layout.link_offsets
+    for i, name in enumerate(topo.links):
+        if name not in model.recovery:
+            continue  # rigid link: no strain
+        rows = slice(offsets[name], offsets[name] + layout.link_sizes[name])
+        height = batch.link_property(name, "section", "height")
+        E = batch.link_property(name, "material", "E")
+        for key, value in link_fields(qz[..., rows], model.recovery[name], model.stations,
+                                      height, E).items():
+            fields[key][:, :, i] = value
+        static_deflection[:, :, i] = link_fields(
+            qz_static[..., rows], model.recovery[name], model.stations, height,
+            E)["deflection"]
+    peak = peaks(fields["deflection"])
+    static_peak = peaks(static_deflection)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        amplification = np.where(static_peak > 0, peak / static_peak, 1.0)
+    return {**fields, "peak_deflection": peak, "peak_stress": peaks(fields["stress"]),
+            "dynamic_amplification": amplification}
+
+
+def _quasi_static_start(model: Model, h: np.ndarray):
+    """q0 = K⁻¹F at t = 0 and q̇0 from the quasi-static solution at ±h (central difference)."""
+    times = h[:, None] * np.array([-1.0, 0.0, 1.0])[None, :]
+    terms, _ = terms_at(model, times)
+    y = np.linalg.solve(terms.stiffness, terms.force[..., None])
+    v0 = (y[:, 2] - y[:, 0]) / (2.0 * h[:, None, None])
+    return y[:, 1], v0

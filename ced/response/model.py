@@ -1,0 +1,261 @@
+"""The KED model of a batch: M(t) q̈ + C(t) q̇ + K(t) q = F(t), built once, evaluated at any time.
+
+:func:`build_model` makes everything that does not change in time: each link's local
+matrices (one formulation module of :mod:`ced.fem.elements`, broadcast over the cases), the
+DOF layout of the joint coupling (:mod:`ced.fem.coupling`), the recovery operators, the
+optional component-mode reduction (:mod:`ced.fem.component_modes`) and modal damping.
+:func:`terms_at` evaluates the system at any times from the rigid motion: the joint projection
+P(t) and its derivatives, the loads of the requested effects (d'Alembert load, weight,
+rotary inertia, the axial force of the rigid motion for axial stiffening), assembled by
+:func:`ced.fem.effect_terms.system_terms`. :class:`StepTerms` serves the step grid chunk by
+chunk to the marching loop.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..fem import elements
+from ..fem.component_modes import craig_bampton
+from ..fem.coupling import Layout, build_layout, projection
+from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients, permute,
+                                split_order, system_terms)
+from ..fem.modal import natural_frequencies
+from ..rigid.inverse_dynamics import inverse_dynamics
+from .batch import Batch
+
+__all__ = ["Model", "build_model", "terms_at", "StepTerms"]
+
+#: Bytes of system terms kept in memory at once (steps per chunk follow from the batch size).
+_CHUNK_BYTES = 50e6
+
+
+@dataclass
+class Model:
+    """Everything about a batch that does not change in time."""
+
+    batch: Batch
+    layout: Layout
+    links: dict[str, LinkData]
+    recovery: dict[str, dict[str, np.ndarray]]  # flexible link -> operator -> (case, st, n)
+    stations: np.ndarray
+    effects: set[str]
+    joint_mass: np.ndarray  # (case, joint) kg
+    modal_damping: np.ndarray | None = None  # (case, ny, ny)
+
+
+def build_model(batch: Batch) -> Model:
+    """Local matrices of every link of every case, the DOF layout and recovery operators.
+
+    The element modules broadcast over cases, so each link is built once for the batch.
+    """
+    scene = batch.scenes[0]
+    topo = batch.topology
+    formulation = scene["discretization"]["formulation"]
+    if formulation == "rigid":
+        raise ValueError("discretization.formulation: rigid has no elastic model to build")
+    n_el = scene["discretization"]["elements_per_link"]
+    stations = np.linspace(0.0, 1.0, scene["outputs"]["stations"])
+    element = elements.formulation(formulation)
+    flexible = {name: scene["links"][name]["flexible"] for name in topo.links}
+    links, recovery, sizes, ends = {}, {}, {}, {}
+    clamp_dofs: tuple[int, ...] = ()
+    for i, name in enumerate(topo.links):
+        par = {key: batch.link_property(name, "material", key) for key in ("E", "G", "rho")}
+        sec = {key: batch.link_property(name, "section", key)
+               for key in ("area", "second_moment", "height", "shear_coefficient")}
+        length = batch.link_lengths[:, i]
+        rotary = 0.0
+        if flexible[name]:
+            extra = ({"elements_across": scene["discretization"]["elements_across"]}
+                     if formulation == "plane_stress" else {})
+            m = element.link_matrices(
+                length, n_el, E=par["E"], G_shear=par["G"], rho=par["rho"], area=sec["area"],
+                second_moment=sec["second_moment"], height=sec["height"],
+                shear_coefficient=sec["shear_coefficient"], **extra)
+            recovery[name] = element.recovery_matrices(m, stations)
+            ends[name] = tuple(tuple(int(d) for d in pair) for pair in m.end_dofs)
+            if formulation in ("timoshenko", "plane_stress"):
+                # The mass carries the section's rotary inertia: the rigid angular
+                # acceleration loads it with the couple −ρIα (plane_stress: the exact αy
+                # body force through its moment_load).
+                rotary = par["rho"] * sec["second_moment"]
+            if name == topo.input_link and formulation != "seed_lame":
+                # seed_lame (thesis II.5) has no section rotation: v' is a displacement
+                # gradient, and fixing it is a constraint its second-order equation cannot
+                # take (convergence drops from h¹⁰ to h). The pivot translation holds the link.
+                clamp_dofs = tuple(int(d) for d in np.atleast_1d(m.end_rotations[0]))
+        else:
+            m = elements.rigid_body.link_matrices(length, rho=par["rho"], area=sec["area"],
+                                                  second_moment=sec["second_moment"])
+            ends[name] = ((0, 1), (0, 1))  # unused: a rigid link's ends follow from (u0, v0, φ)
+        links[name] = LinkData(
+            mass=m.mass, translational_mass=m.translational_mass, stiffness=m.stiffness,
+            gyroscopic=m.gyroscopic, geometric_stiffness=m.geometric_stiffness,
+            load_constant=m.load_constant, load_linear=m.load_linear,
+            moment_load=m.moment_load, mass_per_length=par["rho"] * sec["area"],
+            rotary_inertia_per_length=np.broadcast_to(rotary, length.shape).astype(float))
+        sizes[name] = m.mass.shape[-1]
+    slider = "C" if batch.mechanism_type == "slider_crank" else None
+    layout = build_layout(topo, flexible, sizes, ends, clamp_dofs, slider_joint=slider)
+    links = {name: permute(data, split_order(layout, name)) for name, data in links.items()}
+    modes = scene["discretization"].get("modes_per_link", 0)
+    if modes and any(flexible.values()):
+        layout, links, recovery = _reduce(layout, links, recovery, modes, slider)
+    joint_mass = batch.bodies.point_mass.copy()
+    if slider is not None:
+        joint_mass[:, topo.joint_names.index(slider)] += batch.bodies.slider_mass
+    effects = set(scene["effects"])
+    model = Model(batch, layout, links, recovery, stations, effects, joint_mass)
+    if "damping" in effects and scene["damping"]["model"] == "modal":
+        model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
+    return model
+
+
+def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str | None):
+    """Craig–Bampton reduction of every flexible link (:mod:`ced.fem.component_modes`) and the
+    layout of the reduced blocks: interior = modal coordinates, then the boundary rows
+    unchanged."""
+    topo = layout.topology
+    sizes, ends = dict(layout.link_sizes), dict(layout.end_dofs)
+    clamp = layout.clamp_dofs
+    links, recovery = dict(links), dict(recovery)
+    for name in topo.links:
+        if not layout.flexible[name]:
+            continue
+        rows, _, varying = layout.row_split(name)
+        order = split_order(layout, name)
+        links[name], basis = craig_bampton(links[name], len(rows), modes)
+        n_interior = links[name].mass.shape[-1] - len(varying)
+        recovery[name] = {key: op[..., order] @ basis for key, op in recovery[name].items()}
+        position = {local: n_interior + j for j, local in enumerate(varying)}
+        sizes[name] = n_interior + len(varying)
+        ends[name] = tuple((position[u], position[v]) for u, v in layout.end_dofs[name])
+        if name == topo.input_link and clamp:
+            clamp = tuple(position[i] for i in clamp)
+    return (build_layout(topo, layout.flexible, sizes, ends, clamp, slider_joint=slider),
+            links, recovery)
+
+
+def terms_at(
+    model: Model,
+    times: np.ndarray,
+    effects: set[str] | None = None,
+    extras: frozenset[str] = frozenset(),
+) -> tuple[SystemTerms, np.ndarray]:
+    """System terms and the projection value at arbitrary times (case, step).
+
+    ``effects`` defaults to the scene's; the modal analysis passes them without damping.
+    ``extras`` asks for ``elastic_mass`` / ``elastic_stiffness`` as well (see
+    :class:`ced.fem.effect_terms.SystemTerms`).
+    """
+    batch, layout = model.batch, model.layout
+    effects = model.effects if effects is None else effects
+    topo = layout.topology
+    motion = batch.rigid_motion(times)
+    gravity = batch.gravity if "gravity" in effects else np.zeros_like(batch.gravity)
+    has_inertia = "inertia" in effects
+    P = projection(layout, batch.link_lengths, motion.link_angle,
+                   motion.link_angular_velocity, motion.link_angular_acceleration)
+    g = gravity[:, None, :]
+    loads, axial = {}, {} if "axial_stiffening" in effects else None
+    forces = None
+    if axial is not None:
+        forces = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia).joint_force
+    carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
+    for i, name in enumerate(topo.links):
+        th = motion.link_angle[..., i]
+        c, s = np.cos(th), np.sin(th)
+        first = topo.links[name][0]
+        kf = topo.joint_names.index(first)
+        rho_a = model.links[name].mass_per_length[:, None, None]
+        acc = motion.joint_acceleration[:, :, kf] if has_inertia else 0.0
+        glob = rho_a * (g - acc)  # distributed load at s = 0, global, N/m
+        b0 = np.stack([c * glob[..., 0] + s * glob[..., 1],
+                       -s * glob[..., 0] + c * glob[..., 1]], axis=-1)
+        if has_inertia:
+            w = motion.link_angular_velocity[..., i]
+            al = motion.link_angular_acceleration[..., i]
+            b1 = rho_a * np.stack([w * w, -al], axis=-1)
+        else:
+            b1 = np.zeros_like(b0)
+        loads[name] = (b0, b1, None)
+        if has_inertia and np.any(model.links[name].rotary_inertia_per_length):
+            # Section rotation θ_link + ψ: rotary inertia loads the ψ DOFs with −ρI α.
+            rho_i = model.links[name].rotary_inertia_per_length[:, None]
+            loads[name] = (b0, b1, -rho_i * motion.link_angular_acceleration[..., i])
+        if axial is not None:
+            sign = 1.0 if topo.joints[first][1] == name else -1.0
+            f = sign * forces[:, :, kf]
+            if carrier[first] == name:
+                mp = batch.bodies.point_mass[:, kf][:, None, None]
+                f = f + mp * (g - acc)
+            fx = c * f[..., 0] + s * f[..., 1]
+            axial[name] = axial_force_coefficients(fx, b0[..., 0], b1[..., 0])
+    acc_j = motion.joint_acceleration if has_inertia else 0.0
+    joint_load = model.joint_mass[:, None, :, None] * (gravity[:, None, None, :] - acc_j)
+    if "damping" in effects and model.batch.scenes[0]["damping"]["model"] == "rayleigh":
+        extras = extras | {"elastic_mass", "elastic_stiffness"}
+    terms = system_terms(layout, model.links, P, motion.link_angular_velocity,
+                         motion.link_angular_acceleration, loads, axial, model.joint_mass,
+                         joint_load, effects, frozenset(extras))
+    if "damping" in effects:
+        _add_damping(model, terms)
+    return terms, P[0]
+
+
+def _add_damping(model: Model, terms: SystemTerms) -> None:
+    d = model.batch.scenes[0]["damping"]
+    if d["model"] == "rayleigh":
+        extra = d["alpha"] * terms.elastic_mass + d["beta"] * terms.elastic_stiffness
+    else:
+        extra = np.broadcast_to(model.modal_damping[:, None], terms.stiffness.shape)
+    terms.damping = extra if terms.damping is None else terms.damping + extra
+
+
+def _modal_damping(model: Model, ratio: float) -> np.ndarray:
+    """C = M Φ diag(2ζω) Φᵀ M from the frozen structure at t = 0 (mass-normalised Φ), held
+    constant over the cycle: a phenomenological damping that gives every mode the ratio ζ."""
+    t0 = np.zeros((model.batch.size, 1))
+    terms, _ = terms_at(model, t0, model.effects - {"damping"},
+                        frozenset({"elastic_mass", "elastic_stiffness"}))
+    K, M = terms.elastic_stiffness[:, 0], terms.elastic_mass[:, 0]
+    n = K.shape[-1]
+    freq, shapes = natural_frequencies(K, M, n, shapes=True)
+    omega = 2.0 * math.pi * np.abs(freq)
+    MPhi = M @ shapes
+    return MPhi @ (2.0 * ratio * omega[..., None] * np.swapaxes(MPhi, -1, -2))
+
+
+class StepTerms:
+    """Terms over the step grid, computed chunk by chunk as the march asks for them.
+
+    ``load(k)`` makes step k available and returns its index j in the current chunk
+    (``terms`` and ``P`` hold the chunk); calling the object with k returns (M, C, K, F) at
+    step k, the ``terms`` argument of :func:`ced.response.integrators.march` (through
+    :func:`ced.response.integrators.forced_columns`).
+    """
+
+    def __init__(self, model: Model, h: np.ndarray, n_steps: int):
+        self.model, self.h, self.n_steps = model, h, n_steps
+        layout = model.layout
+        per_step = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
+        self.chunk = int(min(n_steps + 1, max(4, _CHUNK_BYTES // max(per_step, 1))))
+        self.start, self.terms, self.P = None, None, None
+
+    def load(self, k: int):
+        if self.start is None or not (self.start <= k < self.start + self.chunk):
+            self.start = k
+            steps = np.arange(k, min(k + self.chunk, self.n_steps + 1))
+            times = self.h[:, None] * steps[None, :]
+            self.terms, self.P = terms_at(self.model, times)
+        return k - self.start
+
+    def __call__(self, k: int):
+        j = self.load(k)
+        t = self.terms
+        M = t.mass[:, j] if t.mass is not None else None
+        C = t.damping[:, j] if t.damping is not None else None
+        return M, C, t.stiffness[:, j], t.force[:, j]

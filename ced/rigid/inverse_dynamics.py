@@ -1,0 +1,199 @@
+"""Rigid inverse dynamics: pin forces, guide force and input torque (thesis II.1–II.2).
+
+Newton–Euler for every moving body, written as one small linear system per (case, step) and
+solved batched. Unknowns: the force of every joint (on the body listed second by the body
+listed first, DESIGN §3), the slider guide's normal force and reaction moment, and the input
+torque on the input link (the thesis sets the crank's moment equation to zero and so loses
+the driving torque, II.1 eq. 3; it is computed here).
+
+A point mass at a joint is carried by the body listed second in the joint's name (the coupler
+at B, the rocker at C; the slider at C of a slider-crank; the crank at A, where it only adds
+its weight to the ground reaction).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kinematics import RigidMotion
+
+__all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate"]
+
+
+@dataclass(frozen=True)
+class BodyProperties:
+    """Mass properties of the links of a batch, each (case, link), plus joint point masses.
+
+    ``mass`` kg, ``inertia`` kg m² about the centre of mass (taken at mid-length),
+    ``point_mass`` (case, joint) kg, ``slider_mass`` (case,) kg (slider-crank only).
+    """
+
+    mass: np.ndarray
+    inertia: np.ndarray
+    point_mass: np.ndarray
+    slider_mass: np.ndarray
+
+
+@dataclass(frozen=True)
+class InverseDynamics:
+    """``joint_force`` (case, step, joint, 2) N; ``input_torque`` (case, step) N m;
+    ``guide_force`` (case, step) N, the guide's normal (y) force on the slider (slider-crank)."""
+
+    joint_force: np.ndarray
+    input_torque: np.ndarray
+    guide_force: np.ndarray | None
+
+
+def _carrier(motion: RigidMotion) -> dict[str, str]:
+    """Body that carries each joint's point mass: the second body of the joint (the link
+    itself at the free tip of a single link)."""
+    return {j: b[0] if b[1] == "tip" else b[1] for j, b in motion.topology.joints.items()}
+
+
+def inverse_dynamics(
+    motion: RigidMotion,
+    bodies: BodyProperties,
+    gravity: np.ndarray = (0.0, 0.0),
+    inertia: bool = True,
+) -> InverseDynamics:
+    """Solve Newton–Euler for all joint forces and the input torque.
+
+    Parameters
+    ----------
+    motion : rigid motion of the batch
+    bodies : mass properties
+    gravity : (2,) m/s², or (case, 2)
+    inertia : include the d'Alembert forces of the rigid motion (the ``inertia`` effect);
+        without them the result is the static force analysis under gravity.
+    """
+    topo = motion.topology
+    links, joints = topo.link_names, topo.joint_names
+    ncase, nstep = motion.time.shape
+    g = np.broadcast_to(np.asarray(gravity, float), (ncase, 2))[:, None, :]
+
+    # Moving bodies with three equations each: the links, then the slider if any.
+    has_slider = "slider" in {b for pair in topo.joints.values() for b in pair}
+    body_names = links + (["slider"] if has_slider else [])
+    nb = len(body_names)
+    joint_unknowns = [j for j in joints if topo.joints[j][1] != "tip"]
+    nunk = 2 * len(joint_unknowns) + 1 + (2 if has_slider else 0)
+    assert nunk == 3 * nb, "mechanism is not statically determinate"
+
+    # d'Alembert right-hand side per body: Σ F = m (a − g), Σ M_G = I α (+ point masses).
+    rhs = np.zeros((ncase, nstep, nb, 3))
+    centre = np.zeros((ncase, nstep, nb, 2))
+    for i, link in enumerate(links):
+        L = motion.lengths[:, i][:, None]
+        centre[:, :, i] = motion.link_point(link, 0.5 * L[:, 0])
+        acc = motion.link_point(link, 0.5 * L[:, 0], order=2)
+        m = bodies.mass[:, i][:, None, None]
+        rhs[:, :, i, :2] = m * (inertia * acc - g)
+        rhs[:, :, i, 2] = (
+            inertia * bodies.inertia[:, i][:, None] * motion.link_angular_acceleration[:, :, i])
+    if has_slider:
+        js = joints.index("C")
+        centre[:, :, nb - 1] = motion.joint_position[:, :, js]
+        rhs[:, :, nb - 1, :2] = bodies.slider_mass[:, None, None] * (
+            inertia * motion.joint_acceleration[:, :, js] - g
+        )
+    carrier = _carrier(motion)
+    for k, joint in enumerate(joints):
+        body = carrier[joint]
+        if body not in body_names:
+            continue
+        i = body_names.index(body)
+        mp = bodies.point_mass[:, k][:, None, None]
+        force = mp * (inertia * motion.joint_acceleration[:, :, k] - g)
+        rhs[:, :, i, :2] += force
+        arm = motion.joint_position[:, :, k] - centre[:, :, i]
+        rhs[:, :, i, 2] += arm[..., 0] * force[..., 1] - arm[..., 1] * force[..., 0]
+    # Coefficient matrix: rows (body, equation), columns the unknowns.
+    A = np.zeros((ncase, nstep, 3 * nb, nunk))
+    for u, joint in enumerate(joint_unknowns):
+        first, second = topo.joints[joint]
+        k = joints.index(joint)
+        for body, sign in ((first, -1.0), (second, 1.0)):
+            if body not in body_names:
+                continue
+            i = body_names.index(body)
+            arm = motion.joint_position[:, :, k] - centre[:, :, i]
+            A[:, :, 3 * i, 2 * u] = sign
+            A[:, :, 3 * i + 1, 2 * u + 1] = sign
+            A[:, :, 3 * i + 2, 2 * u] = -sign * arm[..., 1]
+            A[:, :, 3 * i + 2, 2 * u + 1] = sign * arm[..., 0]
+    col = 2 * len(joint_unknowns)
+    A[:, :, 3 * body_names.index(topo.input_link) + 2, col] = 1.0  # input torque
+    if has_slider:
+        i = nb - 1
+        A[:, :, 3 * i + 1, col + 1] = 1.0  # guide normal force (y)
+        A[:, :, 3 * i + 2, col + 2] = 1.0  # guide reaction moment
+    x = _solve_regular(A, rhs.reshape(ncase, nstep, 3 * nb), motion.singular)
+
+    force = np.zeros((ncase, nstep, len(joints), 2))
+    for u, joint in enumerate(joint_unknowns):
+        force[:, :, joints.index(joint)] = x[..., 2 * u : 2 * u + 2]
+    return InverseDynamics(
+        joint_force=force,
+        input_torque=x[..., col],
+        guide_force=x[..., col + 1] if has_slider else None,
+    )
+
+
+#: Hadamard ratio |det A| / Π‖rowᵢ‖ of the Newton–Euler matrix (1 for orthogonal rows, 0 when
+#: singular) below which a step counts as singular; an LU, far cheaper than a condition number.
+SINGULAR_RATIO = 1e-12
+
+
+def _solve_regular(A: np.ndarray, b: np.ndarray, singular: np.ndarray) -> np.ndarray:
+    """Solve A x = b per (case, step); at singular steps interpolate x in time.
+
+    At a change point or dead centre the rigid linkage is statically indeterminate (the
+    Newton–Euler matrix is singular) and the interpolated kinematics there are not exactly
+    consistent, so a direct solve gives no answer or an absurd one (~1e17 N m). Forces are
+    continuous through the configuration on the smooth branch, so they are interpolated from
+    the regular neighbours, as the velocities are (:mod:`ced.rigid.kinematics`).
+    """
+    ratio = np.abs(np.linalg.det(A)) / np.prod(np.linalg.norm(A, axis=-1), axis=-1)
+    bad = np.asarray(singular, bool) | ~(ratio > SINGULAR_RATIO)
+    x = np.zeros(b.shape)
+    good = ~bad
+    x[good] = np.linalg.solve(A[good], b[good][..., None])[..., 0]
+    if bad.any():
+        steps = np.arange(b.shape[1])
+        for c in np.flatnonzero(bad.any(axis=1)):
+            ok = good[c]
+            if ok.sum() < 2:
+                continue  # no regular step to learn from: leave zero (flagged upstream)
+            for k in range(b.shape[2]):
+                x[c, ~ok, k] = np.interp(steps[~ok], steps[ok], x[c, ok, k])
+    return x
+
+
+def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.0, 0.0)):
+    """dT/dt + dV/dt of the whole mechanism, W: Σ m v·(a − g) + I ω α over bodies and masses.
+
+    Used to check the power balance P_input = input_torque × ω_input.
+    """
+    topo = motion.topology
+    ncase = motion.time.shape[0]
+    g = np.broadcast_to(np.asarray(gravity, float), (ncase, 2))[:, None, :]
+    rate = np.zeros(motion.time.shape)
+    for i, link in enumerate(topo.link_names):
+        half = 0.5 * motion.lengths[:, i]
+        v = motion.link_point(link, half, order=1)
+        a = motion.link_point(link, half, order=2)
+        rate += bodies.mass[:, i][:, None] * np.sum(v * (a - g), axis=-1)
+        rate += (
+            bodies.inertia[:, i][:, None]
+            * motion.link_angular_velocity[:, :, i]
+            * motion.link_angular_acceleration[:, :, i]
+        )
+    for k, _ in enumerate(topo.joint_names):
+        v, a = motion.joint_velocity[:, :, k], motion.joint_acceleration[:, :, k]
+        rate += bodies.point_mass[:, k][:, None] * np.sum(v * (a - g), axis=-1)
+    if "slider" in {b for pair in topo.joints.values() for b in pair}:
+        k = topo.joint_names.index("C")
+        v, a = motion.joint_velocity[:, :, k], motion.joint_acceleration[:, :, k]
+        rate += bodies.slider_mass[:, None] * np.sum(v * (a - g), axis=-1)
+    return rate

@@ -1,0 +1,298 @@
+"""Rigid kinematics of planar linkages, closed form, batched over cases and time (thesis II.1–II.2).
+
+All functions take lengths as arrays of shape ``(case,)`` and the input motion as arrays of
+shape ``(case, step)``; results carry those two leading dimensions. Angles in rad, lengths in
+m, angular velocities in rad/s, angular accelerations in rad/s².
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..problem.mechanism import GRASHOF_RTOL, Topology, topology
+
+__all__ = ["InputMotion", "RigidMotion", "input_motion", "four_bar", "slider_crank", "single_link"]
+
+#: |sin| of the transmission angle below which the closed-form velocity formulas are replaced
+#: by interpolation in time (change points and toggle positions: the formulas become 0/0).
+SINGULAR_SIN = 1e-7
+
+
+@dataclass(frozen=True)
+class InputMotion:
+    """Angle, angular velocity and acceleration of the input link, each ``(case, step)``."""
+
+    time: np.ndarray
+    angle: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+
+
+def input_motion(
+    time: np.ndarray,
+    speed: np.ndarray,
+    initial_angle: np.ndarray,
+    amplitude: np.ndarray | None = None,
+) -> InputMotion:
+    """Constant-speed rotation, or oscillation θ = θ_mid + A sin(Ωt) when ``amplitude`` is given.
+
+    Parameters
+    ----------
+    time : (case, step) s
+    speed : (case,) rad/s — crank speed Ω, or the oscillation's circular frequency.
+    initial_angle : (case,) rad — θ at t = 0 (θ_mid for an oscillating input).
+    amplitude : (case,) rad or None — oscillation amplitude A; NaN entries rotate.
+    """
+    omega = np.asarray(speed, float)[:, None]
+    theta0 = np.asarray(initial_angle, float)[:, None]
+    angle = theta0 + omega * time
+    velocity = np.broadcast_to(omega, time.shape).copy()
+    acceleration = np.zeros_like(time)
+    if amplitude is not None:
+        amp = np.asarray(amplitude, float)[:, None]
+        rocks = np.broadcast_to(np.isfinite(amp), time.shape)
+        phase = omega * time
+        a = np.where(np.isfinite(amp), amp, 0.0)
+        angle = np.where(rocks, theta0 + a * np.sin(phase), angle)
+        velocity = np.where(rocks, a * omega * np.cos(phase), velocity)
+        acceleration = np.where(rocks, -a * omega**2 * np.sin(phase), acceleration)
+    return InputMotion(time, angle, velocity, acceleration)
+
+
+@dataclass(frozen=True)
+class RigidMotion:
+    """Rigid motion of a batch of linkages.
+
+    Arrays: ``link_angle``, ``link_angular_velocity``, ``link_angular_acceleration`` of shape
+    (case, step, link); ``joint_position``, ``joint_velocity``, ``joint_acceleration`` of shape
+    (case, step, joint, 2); ``lengths`` (case, link). ``singular`` (case, step) marks steps
+    where the transmission is singular (change point, toggle) and velocities were interpolated.
+    """
+
+    topology: Topology
+    time: np.ndarray
+    lengths: np.ndarray
+    link_angle: np.ndarray
+    link_angular_velocity: np.ndarray
+    link_angular_acceleration: np.ndarray
+    joint_position: np.ndarray
+    joint_velocity: np.ndarray
+    joint_acceleration: np.ndarray
+    singular: np.ndarray
+
+    def link_point(self, link: str, s: np.ndarray | float, order: int = 0) -> np.ndarray:
+        """Position (order 0), velocity (1) or acceleration (2) of the point at distance
+        ``s`` (m, broadcast against (case,)) from the link's first joint, (case, step, 2)."""
+        i = self.topology.link_names.index(link)
+        first = self.topology.joint_names.index(self.topology.links[link][0])
+        base = (self.joint_position, self.joint_velocity, self.joint_acceleration)[order][:, :, first]
+        th = self.link_angle[:, :, i]
+        w = self.link_angular_velocity[:, :, i]
+        al = self.link_angular_acceleration[:, :, i]
+        e = np.stack([np.cos(th), np.sin(th)], axis=-1)
+        n = np.stack([-np.sin(th), np.cos(th)], axis=-1)
+        s = np.asarray(s, float).reshape(-1, 1, 1) if np.ndim(s) else float(s)
+        if order == 0:
+            return base + s * e
+        if order == 1:
+            return base + s * w[..., None] * n
+        return base + s * (al[..., None] * n - (w**2)[..., None] * e)
+
+
+def _unit(angle: np.ndarray) -> np.ndarray:
+    return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+
+
+def _perp(angle: np.ndarray) -> np.ndarray:
+    return np.stack([-np.sin(angle), np.cos(angle)], axis=-1)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _track_branch(
+    candidates: np.ndarray, start_index: np.ndarray, touching: np.ndarray
+) -> np.ndarray:
+    """Pick, step by step, the candidate angle that continues the motion smoothly.
+
+    ``candidates`` (2, case, step) are the two assembly solutions. The branches of a linkage
+    touch only at a change point (S + L = P + Q, ``touching``); elsewhere the choice never
+    changes, however close the branches come. Where they touch, the candidate nearest to the
+    linear extrapolation of the last two steps is kept, so the motion passes straight through
+    the singular configuration instead of reflecting off it. Deterministic.
+    """
+    gap = np.abs(np.angle(np.exp(1j * (candidates[0] - candidates[1]))))
+    ncase, nstep = gap.shape
+    choice = np.broadcast_to(start_index[:, None], (ncase, nstep)).copy()
+    # Only change-point cases whose branches come close need the sequential pass.
+    close = np.asarray(touching, bool) & (gap.min(axis=1) < 1e-2)
+    if not close.any() or nstep < 3:
+        return np.take_along_axis(candidates, choice[None], axis=0)[0]
+    cand = candidates[:, close]
+    pick = choice[close]
+    chosen = np.empty(cand.shape[1:])
+    rows = np.arange(cand.shape[1])
+    chosen[:, 0] = cand[pick[:, 0], rows, 0]
+    chosen[:, 1] = cand[pick[:, 1], rows, 1]
+    for k in range(2, nstep):
+        predicted = 2.0 * chosen[:, k - 1] - chosen[:, k - 2]
+        dist = np.abs(np.angle(np.exp(1j * (cand[:, :, k] - predicted))))
+        pick[:, k] = np.argmin(dist, axis=0)
+        chosen[:, k] = cand[pick[:, k], rows, k]
+    choice[close] = pick
+    return np.take_along_axis(candidates, choice[None], axis=0)[0]
+
+
+def _fill_singular(values: np.ndarray, singular: np.ndarray) -> np.ndarray:
+    """Replace values at singular steps by linear interpolation in step index (per case)."""
+    if not singular.any():
+        return values
+    out = values.copy()
+    steps = np.arange(values.shape[1])
+    for c in np.flatnonzero(singular.any(axis=1)):
+        good = ~singular[c]
+        if good.sum() < 2:
+            out[c] = 0.0
+            continue
+        out[c, ~good] = np.interp(steps[~good], steps[good], values[c, good])
+    return out
+
+
+def four_bar(
+    ground: np.ndarray,
+    crank: np.ndarray,
+    coupler: np.ndarray,
+    rocker: np.ndarray,
+    motion: InputMotion,
+    branch: np.ndarray,
+) -> RigidMotion:
+    """Closed-form four-bar kinematics with continuous branch tracking.
+
+    Parameters
+    ----------
+    ground, crank, coupler, rocker : (case,) m
+    motion : input (crank) angle, velocity, acceleration
+    branch : (case,) +1 for ``open`` (C on the left of B→D at t = 0), −1 for ``crossed``.
+    """
+    g, a, b, c = (np.asarray(x, float)[:, None] for x in (ground, crank, coupler, rocker))
+    th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
+    ncase, nstep = th2.shape
+    A = np.zeros((ncase, nstep, 2))
+    B = a[..., None] * _unit(th2)
+    D = np.zeros_like(B)
+    D[..., 0] = g
+    BD = D - B
+    d = np.hypot(BD[..., 0], BD[..., 1])
+    psi = np.arctan2(BD[..., 1], BD[..., 0])
+    # Angle at B between B→D and B→C (law of cosines); clipped at the toggle limits.
+    cos_beta = np.clip((b * b + d * d - c * c) / (2.0 * b * d), -1.0, 1.0)
+    beta = np.arccos(cos_beta)
+    candidates = np.stack([psi + beta, psi - beta])  # C left of B→D, C right of B→D
+    start = np.where(np.asarray(branch)[:] > 0, 0, 1)
+    ordered = np.sort(np.concatenate([g, a, b, c], axis=1), axis=1)
+    s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
+    touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
+    th3 = np.unwrap(_track_branch(candidates, start, touching), axis=1)
+    C = B + b[..., None] * _unit(th3)
+    th4 = np.unwrap(np.arctan2(C[..., 1] - D[..., 1], C[..., 0] - D[..., 0]), axis=1)
+
+    # Velocities: a ω2 e⊥2 + b ω3 e⊥3 = c ω4 e⊥4, dotted with e4 and e3 (e⊥i·ej = sin(θj − θi)).
+    s34 = np.sin(th3 - th4)
+    singular = np.abs(s34) < SINGULAR_SIN
+    safe = np.where(singular, 1.0, s34)
+    w3 = a * w2 * np.sin(th4 - th2) / (b * safe)
+    w4 = a * w2 * np.sin(th3 - th2) / (c * safe)
+    w3, w4 = _fill_singular(w3, singular), _fill_singular(w4, singular)
+    # Accelerations: b α3 e⊥3 − c α4 e⊥4 = −R with the known part R below.
+    R = (
+        a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
+        - b[..., None] * (w3**2)[..., None] * _unit(th3)
+        + c[..., None] * (w4**2)[..., None] * _unit(th4)
+    )
+    al3 = np.sum(R * _unit(th4), axis=-1) / (b * safe)
+    al4 = np.sum(R * _unit(th3), axis=-1) / (c * safe)
+    al3, al4 = _fill_singular(al3, singular), _fill_singular(al4, singular)
+
+    vA = np.zeros_like(B)
+    vB = a[..., None] * w2[..., None] * _perp(th2)
+    vC = c[..., None] * w4[..., None] * _perp(th4)
+    aB = a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
+    aC = c[..., None] * (al4[..., None] * _perp(th4) - (w4**2)[..., None] * _unit(th4))
+    return RigidMotion(
+        topology=topology("four_bar"),
+        time=motion.time,
+        lengths=np.stack([x[:, 0] for x in (a, b, c)], axis=-1),
+        link_angle=np.stack([th2, th3, th4], axis=-1),
+        link_angular_velocity=np.stack([w2, w3, w4], axis=-1),
+        link_angular_acceleration=np.stack([al2, al3, al4], axis=-1),
+        joint_position=np.stack([A, B, C, D], axis=2),
+        joint_velocity=np.stack([vA, vB, vC, vA], axis=2),
+        joint_acceleration=np.stack([vA, aB, aC, vA], axis=2),
+        singular=singular,
+    )
+
+
+def slider_crank(
+    crank: np.ndarray,
+    rod: np.ndarray,
+    offset: np.ndarray,
+    motion: InputMotion,
+    branch: np.ndarray,
+) -> RigidMotion:
+    """Closed-form slider-crank kinematics; the slider C moves on y = ``offset``.
+
+    ``branch`` +1 (``open``) puts the slider on the +x side of B (cos θ_rod > 0), −1 on the −x
+    side. Requires crank + |offset| < rod, so the rod never turns vertical.
+    """
+    a, b, e = (np.asarray(x, float)[:, None] for x in (crank, rod, offset))
+    sigma = np.asarray(branch, float)[:, None]
+    th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
+    sin3 = (e - a * np.sin(th2)) / b
+    cos3 = sigma * np.sqrt(np.clip(1.0 - sin3**2, 0.0, None))
+    th3 = np.unwrap(np.arctan2(sin3, cos3), axis=1)
+    # a sinθ2 + b sinθ3 = e differentiated once and twice.
+    w3 = -a * w2 * np.cos(th2) / (b * cos3)
+    al3 = (a * w2**2 * np.sin(th2) - a * al2 * np.cos(th2) + b * w3**2 * sin3) / (b * cos3)
+    A = np.zeros(th2.shape + (2,))
+    B = a[..., None] * _unit(th2)
+    C = B + b[..., None] * _unit(th3)
+    vB = a[..., None] * w2[..., None] * _perp(th2)
+    aB = a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
+    vC = vB + b[..., None] * w3[..., None] * _perp(th3)
+    aC = aB + b[..., None] * (al3[..., None] * _perp(th3) - (w3**2)[..., None] * _unit(th3))
+    return RigidMotion(
+        topology=topology("slider_crank"),
+        time=motion.time,
+        lengths=np.stack([a[:, 0], b[:, 0]], axis=-1),
+        link_angle=np.stack([th2, th3], axis=-1),
+        link_angular_velocity=np.stack([w2, w3], axis=-1),
+        link_angular_acceleration=np.stack([al2, al3], axis=-1),
+        joint_position=np.stack([A, B, C], axis=2),
+        joint_velocity=np.stack([A, vB, vC], axis=2),
+        joint_acceleration=np.stack([A, aB, aC], axis=2),
+        singular=np.zeros(th2.shape, bool),
+    )
+
+
+def single_link(length: np.ndarray, motion: InputMotion) -> RigidMotion:
+    """One link driven about the ground pivot A, free tip B."""
+    L = np.asarray(length, float)[:, None, None]
+    th, w, al = motion.angle, motion.velocity, motion.acceleration
+    A = np.zeros(th.shape + (2,))
+    B = L * _unit(th)
+    vB = L * w[..., None] * _perp(th)
+    aB = L * (al[..., None] * _perp(th) - (w**2)[..., None] * _unit(th))
+    return RigidMotion(
+        topology=topology("single_link"),
+        time=motion.time,
+        lengths=L[:, :, 0],
+        link_angle=th[..., None],
+        link_angular_velocity=w[..., None],
+        link_angular_acceleration=al[..., None],
+        joint_position=np.stack([A, B], axis=2),
+        joint_velocity=np.stack([A, vB], axis=2),
+        joint_acceleration=np.stack([A, aB], axis=2),
+        singular=np.zeros(th.shape, bool),
+    )

@@ -1,0 +1,274 @@
+"""``ced.simulate``: scenes in, one CF-described xarray dataset out.
+
+Scenes are normalized, their automatic choices resolved (:mod:`ced.auto.effects`), grouped into
+batches of identical structure, and each batch is solved vectorized across its cases. A batch
+that raises is re-run case by case so that one bad case is recorded in ``status``/``message``
+and the others survive. The automatic choices and the error estimate get their solutions
+through this module's solver, injected into them, so they batch like any run.
+"""
+from __future__ import annotations
+
+import json
+import time as _time
+from collections.abc import Mapping
+
+import numpy as np
+import xarray as xr
+
+from ..auto.discretization import resolve_discretization
+from ..auto.effects import resolve_auto
+from ..auto.error_estimate import error_estimates
+from ..problem.mechanism import topology
+from ..problem.scene import EFFECTS, load_scene
+from ..problem.status import STATUS_FLAGS
+from ..response.batch import Batch, make_batch, structure_key
+from ..response.elastic import elastic_response
+from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
+from ..response.model import build_model
+from ..rigid.inverse_dynamics import inverse_dynamics
+from .dataset import VARIABLES, case_coordinates, make_dataset
+
+__all__ = ["simulate", "solve_batch"]
+
+
+def _as_list(scenes) -> list:
+    if isinstance(scenes, (str, Mapping)) or hasattr(scenes, "__fspath__"):
+        return [scenes]
+    return list(scenes)
+
+
+def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
+    """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
+
+    Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
+    ``case`` axis,
+    sampled every ``outputs.every`` steps.
+    """
+    scene = batch.scenes[0]
+    effects = scene["effects"]
+    if effects == "auto":
+        raise ValueError("effects: auto must be resolved before solving "
+                         "(ced.auto.effects.resolve_auto, as simulate does)")
+    every = scene["outputs"]["every"]
+    motion = batch.rigid_motion()
+    forces = inverse_dynamics(
+        motion, batch.bodies, batch.gravity, inertia="inertia" in effects)
+    out = {
+        "time": motion.time,
+        "crank_angle": motion.link_angle[:, :, 0],
+        "joint_position": motion.joint_position,
+        "link_angle": motion.link_angle,
+        "link_angular_velocity": motion.link_angular_velocity,
+        "link_angular_acceleration": motion.link_angular_acceleration,
+        "joint_force": forces.joint_force,
+        "input_torque": forces.input_torque,
+    }
+    if forces.guide_force is not None:
+        out["guide_force"] = forces.guide_force
+    out = {k: v[:, ::every] for k, v in out.items()}
+    flags = np.zeros(batch.size, np.uint8)
+    flags[motion.singular.any(axis=1)] |= STATUS_FLAGS["near_singular"]
+    out["status"] = flags
+    if scene["discretization"] == "auto":
+        raise ValueError("discretization: auto must be resolved before solving "
+                         "(ced.auto.discretization.resolve_discretization, as simulate does)")
+    if scene["discretization"]["formulation"] != "rigid":
+        out.update(elastic_response(batch, out["status"]))
+    return out
+
+
+def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Solve a batch; if it fails, solve its cases one by one and record the failures."""
+    try:
+        return solve_batch(batch), [""] * batch.size
+    except Exception:  # noqa: BLE001 — isolate the failing case(s) below
+        if batch.size == 1:
+            raise
+    results, messages = [], []
+    for scene in batch.scenes:
+        try:
+            results.append(solve_batch(make_batch([scene])))
+            messages.append("")
+        except Exception as err:  # noqa: BLE001 — a failed case is recorded, not fatal
+            results.append(None)
+            messages.append(f"failed: {type(err).__name__}: {err}")
+    template = next((r for r in results if r is not None), None)
+    if template is None:
+        raise RuntimeError("every case of the batch failed: " + "; ".join(messages))
+    merged = {}
+    for name, value in template.items():
+        parts = []
+        for r in results:
+            if r is None:
+                filler = np.full_like(value[:1], np.nan if value.dtype.kind == "f" else 0)
+                if name == "status":
+                    filler[:] = STATUS_FLAGS["failed"]
+                parts.append(filler)
+            else:
+                parts.append(r[name])
+        merged[name] = np.concatenate(parts)
+    return merged, messages
+
+
+def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]]) -> list[tuple]:
+    """Solve each group of structurally identical scenes as one batch.
+
+    Returns (batch, indices, result, (messages, seconds per case)) per group.
+    """
+    solved = []
+    for indices in groups.values():
+        batch = make_batch([scenes[i] for i in indices])
+        start = _time.perf_counter()
+        result, messages = _solve_isolated(batch)
+        seconds = (_time.perf_counter() - start) / batch.size
+        solved.append((batch, indices, result, (messages, seconds)))
+    return solved
+
+
+def _case_peak(peak_stress: np.ndarray) -> np.ndarray:
+    """(case, link) → (case,): the largest peak over the links (NaN-safe), Pa."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isnan(peak_stress).all(axis=1), np.nan,
+                        np.nanmax(np.where(np.isnan(peak_stress), -np.inf, peak_stress), axis=1))
+
+
+def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.ndarray:
+    """Largest first natural frequency over the cycle, rad/s, per case (caller's order).
+
+    Taken from the modal analysis when the scenes ask for one; otherwise a frozen analysis at
+    four phases is made here (only for the error estimate).
+    """
+    if "natural_frequency" in data:
+        return first_natural_frequency(data["natural_frequency"])
+    parts = [first_natural_frequency(cycle_frequencies(build_model(batch), modal_phases(4), 1))
+             for batch, *_ in solved]
+    return np.concatenate(parts)[order]
+
+
+def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray]:
+    """Peak stress, first natural frequency (where the scenes ask for a modal analysis) and
+    speed of scenes solved in batches, in the order given: the solver injected into
+    :func:`ced.auto.discretization.resolve_discretization` (pilots) and
+    :func:`ced.auto.error_estimate.error_estimates` (companions, ``keep_going``: a group whose
+    every case fails leaves NaN instead of raising)."""
+    groups: dict[tuple, list[int]] = {}
+    for index, scene in enumerate(scenes):
+        groups.setdefault(structure_key(scene), []).append(index)
+    out = {key: np.full(len(scenes), np.nan) for key in ("peak", "omega1", "speed")}
+    for key, indices in groups.items():
+        try:
+            ((batch, _, result, _),) = _solve_groups(scenes, {key: indices})
+        except Exception:  # noqa: BLE001 — each failure is in the case's own run; no estimate
+            if keep_going:
+                continue
+            raise
+        failed = (result["status"] & STATUS_FLAGS["failed"]) > 0
+        out["peak"][indices] = np.where(failed, np.nan, _case_peak(result["peak_stress"]))
+        out["speed"][indices] = batch.speed
+        if "natural_frequency" in result:
+            out["omega1"][indices] = first_natural_frequency(result["natural_frequency"])
+    return out
+
+
+def simulate(scenes) -> xr.Dataset:
+    """Run one scene or many and return the DESIGN §5 dataset.
+
+    Parameters
+    ----------
+    scenes : path, dict, or an iterable of them
+        Scenes in the format of DESIGN §4. All must share the mechanism type and the number of
+        output steps (one dataset has one ``step`` dimension).
+
+    Returns
+    -------
+    xarray.Dataset
+        One entry per scene along ``case``, in the order given.
+
+    Examples
+    --------
+    >>> ds = simulate({"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1,
+    ...                              "coupler": 0.45, "rocker": 0.35},
+    ...                "discretization": {"formulation": "rigid"},
+    ...                "time": {"revolutions": 1, "steps_per_revolution": 64}})
+    >>> ds.sizes["case"], str(ds.family.values[0])
+    (1, 'crank_rocker')
+    """
+    normalized = [load_scene(s) for s in _as_list(scenes)]
+    if not normalized:
+        raise ValueError("simulate: no scenes given")
+    auto_reports = None
+    if any(s["effects"] == "auto" for s in normalized):
+        resolved = [resolve_auto(s) for s in normalized]
+        normalized = [scene for scene, _ in resolved]
+        auto_reports = [json.dumps(report, sort_keys=True) if report else "" for _, report in
+                        resolved]
+    auto_discretization = None
+    reports: list[dict] = [{} for _ in normalized]
+    if any(s["discretization"] == "auto" for s in normalized):
+        normalized, reports = resolve_discretization(normalized, _peaks)
+        auto_discretization = [json.dumps(r, sort_keys=True) if r else "" for r in reports]
+    kinds = {s["mechanism"]["type"] for s in normalized}
+    if len(kinds) > 1:
+        raise ValueError(f"simulate: all scenes must share mechanism.type, got {sorted(kinds)}")
+    groups: dict[tuple, list[int]] = {}
+    for index, scene in enumerate(normalized):
+        groups.setdefault(structure_key(scene), []).append(index)
+    n_out = {k[1] // k[2] + 1 for k in groups}
+    if len(n_out) > 1:
+        raise ValueError(
+            "simulate: scenes must share the number of output steps "
+            "(time.revolutions × time.steps_per_revolution / outputs.every)")
+
+    solved = _solve_groups(normalized, groups)
+    batches = [batch for batch, _, _, _ in solved]
+    positions = [i for _, indices, _, _ in solved for i in indices]
+    # Restore the caller's order of cases.
+    order = np.argsort(np.array(positions))
+    results = [result for _, _, result, _ in solved]
+    names = set.intersection(*(set(r) for r in results))
+    data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
+    data["solve_time"] = np.concatenate(
+        [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
+    data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
+    if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
+        data["error_estimate"] = error_estimates(
+            normalized, _case_peak(data["peak_stress"]),
+            (data["status"] & STATUS_FLAGS["failed"]) > 0,
+            lambda: _first_frequency(solved, data, order),
+            np.concatenate([b.step_size for b in batches])[order],
+            lambda companions: _peaks(companions, keep_going=True)["peak"],
+            known={i: r["predicted_error"] for i, r in enumerate(reports) if r})
+    if auto_discretization is not None:
+        data["discretization_auto"] = np.array(auto_discretization, dtype=object)
+        unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])
+        data["status"] = np.where(unmet, data["status"] | STATUS_FLAGS["tolerance_unmet"],
+                                  data["status"]).astype(data["status"].dtype)
+    if auto_reports is not None:
+        data["effects_auto"] = np.array(auto_reports, dtype=object)
+
+    first = normalized[0]
+    topo = topology(first["mechanism"]["type"])
+    coords = {
+        "case": ("case", np.arange(len(normalized)), {"units": "1", "long_name": "case index"}),
+        "step": ("step", np.arange(next(iter(n_out))) * first["outputs"]["every"],
+                 {"units": "1", "long_name": "time step index"}),
+        "link": ("link", np.array(topo.link_names, dtype=object), {"long_name": "link"}),
+        "joint": ("joint", np.array(topo.joint_names, dtype=object), {"long_name": "joint"}),
+        "axis": ("axis", np.array(["x", "y"], dtype=object), {"long_name": "global axis"}),
+        **case_coordinates(batches, order),
+    }
+    used = {d for name in data for d in VARIABLES[name][0]}
+    if "modal_angle" in used:
+        n = first["modal"]["angles"]
+        coords["modal_angle"] = ("modal_angle", 2.0 * np.pi * np.arange(n) / n, {
+            "units": "rad", "long_name": "phase of the input cycle (crank angle − initial "
+                                        "angle for a rotating input)"})
+        coords["mode"] = ("mode", np.arange(1, first["modal"]["modes"] + 1),
+                          {"units": "1", "long_name": "mode number, by ascending frequency"})
+    if "station" in used:
+        n = first["outputs"]["stations"]
+        coords["station"] = ("station", np.linspace(0.0, 1.0, n),
+                             {"units": "1", "long_name": "normalized position along the link"})
+    effects = sorted({e for s in normalized for e in s["effects"]},
+                     key=EFFECTS.index)
+    return make_dataset(data, coords, scenes=normalized, effects=effects)

@@ -1,0 +1,295 @@
+"""The case table of a study config and its chunks.
+
+The case table is a pure, deterministic function of the config (DESIGN §6): the cartesian
+product of the grids, each geometry classified (Grashof) into its family, filtered by the
+families to keep, in a fixed order (mechanism type, then the length grids in the order of
+:data:`GRID_KEYS`, then speed, material, section). A case's id is its position among the
+cases of its family, so chunk files of one family concatenate without clashes, and a job is
+named by (family, chunk index) — never by a float.
+
+Building the table is cheap (the Grashof classification of each geometry); the scenes are
+built only for the rows asked for, so the Snakefile can call :func:`chunks` at parse time.
+
+The config is validated first (:mod:`ced.study.config`); the functions here assume a valid
+one. :func:`ced.study.chunk_job.run_chunk` simulates one chunk.
+
+Examples
+--------
+>>> config = {"grids": {"four_bar": {"ground": 0.5, "crank": [0.1, 0.2],
+...                                  "coupler": [0.45], "rocker": [0.35]}},
+...           "speeds": [50.0, 100.0], "materials": ["steel"],
+...           "sections": [{"shape": "rectangle", "height": 0.005, "width": 0.01}],
+...           "chunk_size": 3}
+>>> chunks(config)
+{'crank_rocker': 2}
+>>> [(r["case"], r["crank"], r["speed"]) for r in case_table(config)]
+[(0, 0.1, 50.0), (1, 0.1, 100.0), (2, 0.2, 50.0), (3, 0.2, 100.0)]
+"""
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..problem.errors import SceneError
+from ..problem.materials import resolve_material
+from ..problem.mechanism import FAMILIES, assembly_error, classify
+
+__all__ = [
+    "GRID_KEYS",
+    "CASE_KEYS",
+    "grid_values",
+    "grid_axes",
+    "axis_length",
+    "grid_points",
+    "assemblable_geometries",
+    "kept_geometries",
+    "inner_points",
+    "material_names",
+    "scene_for",
+    "case_row",
+    "case_table",
+    "family_sizes",
+    "chunks",
+    "chunk_rows",
+    "chunk_scenes",
+    "case_config",
+    "modal_requested",
+    "study_size",
+]
+
+
+#: Length keys spanned by the grids of each mechanism type, in case-table order.
+GRID_KEYS = {
+    "four_bar": ("crank", "coupler", "rocker"),
+    "slider_crank": ("crank", "rod", "offset"),
+}
+#: Config keys that define the cases (and so the chunk files); the rest (study name, families
+#: kept, reduction settings) can change without re-simulating anything.
+CASE_KEYS = ("grids", "speeds", "materials", "sections", "chunk_size", "base_scene")
+
+
+def grid_values(spec, path: str = "grid") -> list[float]:
+    """The values of one grid axis.
+
+    Parameters
+    ----------
+    spec : number, list of numbers, or mapping ``{start, stop, num}``
+        A single value, explicit values (kept in the order given), or ``num`` evenly spaced
+        values from ``start`` to ``stop`` inclusive.
+    path : str
+        Key path for error messages.
+
+    Examples
+    --------
+    >>> grid_values({"start": 0.1, "stop": 0.3, "num": 3})
+    [0.1, 0.2, 0.3]
+    >>> grid_values([0.3, 0.1]), grid_values(0.5)
+    ([0.3, 0.1], [0.5])
+    """
+    if isinstance(spec, Mapping):
+        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if missing or set(spec) - {"start", "stop", "num"}:
+            raise SceneError(path, "a range must have exactly the keys start, stop, num")
+        num = spec["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
+            raise SceneError(f"{path}.num", f"must be an integer >= 1, got {num!r}")
+        values = np.linspace(float(spec["start"]), float(spec["stop"]), num)
+        # Round away the last-bit noise of linspace so that equal lengths compare equal
+        # (S + L = P + Q for change points) and print as given.
+        return [float(f"{v:.12g}") for v in values]
+    if isinstance(spec, (list, tuple)):
+        if not spec:
+            raise SceneError(path, "must not be empty")
+        values = list(spec)
+    else:
+        values = [spec]
+    for i, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise SceneError(f"{path}[{i}]" if isinstance(spec, (list, tuple)) else path,
+                             f"must be a finite number, got {v!r}")
+    return [float(v) for v in values]
+
+
+def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
+    """(mechanism type, family, lengths) of every assemblable geometry of the grids, in table
+    order, whatever the families kept."""
+    out = []
+    for kind, keys in GRID_KEYS.items():
+        grid = config.get("grids", {}).get(kind)
+        if not grid:
+            continue
+        spec = {k: grid.get(k, [0.0] if k == "offset" else None) for k in keys}
+        axes = [grid_values(spec[k], f"grids.{kind}.{k}") for k in keys]
+        for values in itertools.product(*axes):
+            lengths = dict(zip(keys, values))
+            if kind == "four_bar":
+                lengths = {"ground": float(grid["ground"]), **lengths}
+            if assembly_error({"type": kind, **lengths}):
+                continue
+            family = classify(**lengths) if kind == "four_bar" else kind
+            out.append((kind, family, lengths))
+    return out
+
+
+def kept_geometries(config: dict) -> list[tuple[str, str, dict]]:
+    """(mechanism type, family, lengths) of every assemblable geometry kept, in table order."""
+    keep = set(config.get("families", FAMILIES))
+    return [g for g in assemblable_geometries(config) if g[1] in keep]
+
+
+def inner_points(config: dict) -> list[tuple[float, int, int]]:
+    """(speed, material index, section index) of each case of one geometry, in table order."""
+    speeds = grid_values(config["speeds"], "speeds")
+    return list(itertools.product(
+        speeds, range(len(config["materials"])), range(len(config["sections"]))))
+
+
+def material_names(config: dict) -> list[str]:
+    """Resolved names of the study's materials (library aliases mapped to the library name)."""
+    return [resolve_material(m, f"materials[{i}]")["name"]
+            for i, m in enumerate(config["materials"])]
+
+
+def scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
+               section: dict) -> dict:
+    """The (un-normalized) scene of one case: the base scene with the case's mechanism,
+    material (of every link, through ``links.default``), section and speed."""
+    base = copy.deepcopy(config.get("base_scene") or {})
+    # Keys of a base mechanism block other than type and lengths (e.g. branch) carry over.
+    mechanism = {k: v for k, v in (base.get("mechanism") or {}).items()
+                 if k not in ("type", "ground", *GRID_KEYS[kind], "slider_mass")}
+    mechanism.update({"type": kind, **lengths})
+    if kind == "slider_crank":
+        mechanism["slider_mass"] = float(config["grids"]["slider_crank"].get("slider_mass", 0.0))
+    base["mechanism"] = mechanism
+    links = base.setdefault("links", {})
+    default = links.setdefault("default", {})
+    default["material"] = copy.deepcopy(material)
+    default["section"] = dict(section)
+    base.setdefault("drive", {})["speed"] = speed
+    return base
+
+
+def case_row(config: dict, kind: str, family: str, lengths: dict, case: int,
+         inner: tuple[float, int, int], names: list[str], scene: bool) -> dict:
+    """One row of the case table (see :func:`case_table`)."""
+    speed, m, s = inner
+    material = config["materials"][m]
+    row = {"case": case, "family": family, "mechanism": kind, **lengths, "speed": speed,
+           "material": names[m], "material_index": m, "section": s}
+    if scene:
+        row["scene"] = scene_for(config, kind, lengths, speed, material, config["sections"][s])
+    return row
+
+
+def case_table(config: dict, family: str | None = None, *, scenes: bool = True) -> list[dict]:
+    """Every case of the study (or of one ``family``), in a deterministic order.
+
+    Each row: ``case`` (id within the family), ``family``, ``mechanism`` (type), the lengths,
+    ``speed``, ``material`` (resolved name), ``material_index``, ``section`` (index into the
+    config's sections) and, if ``scenes``, ``scene`` (an un-normalized scene dict). Linkages
+    that cannot be assembled are dropped, as are families not in ``config["families"]``.
+    """
+    inner, names = inner_points(config), material_names(config)
+    counters: dict[str, int] = {}
+    rows = []
+    for kind, fam, lengths in kept_geometries(config):
+        if family is not None and fam != family:
+            continue
+        for point in inner:
+            case = counters.get(fam, 0)
+            counters[fam] = case + 1
+            rows.append(case_row(config, kind, fam, lengths, case, point, names, scenes))
+    return rows
+
+
+def family_sizes(config: dict) -> dict[str, int]:
+    """Number of cases of each family present in the study (families in table order)."""
+    n = len(inner_points(config))
+    sizes: dict[str, int] = {}
+    for _, family, _ in kept_geometries(config):
+        sizes[family] = sizes.get(family, 0) + n
+    return sizes
+
+
+def study_size(config: dict) -> int:
+    """Number of grid points before assembly check and classification (:func:`grid_points`)."""
+    return grid_points(config)
+
+
+def chunks(config: dict) -> dict[str, int]:
+    """Number of chunks of each family present in the study."""
+    size = int(config["chunk_size"])
+    return {f: math.ceil(n / size) for f, n in family_sizes(config).items()}
+
+
+def chunk_rows(config: dict, family: str, index: int, *, scenes: bool = True) -> list[dict]:
+    """Rows of chunk ``index`` of ``family`` (scenes are built for these rows only)."""
+    size = int(config["chunk_size"])
+    inner, names = inner_points(config), material_names(config)
+    geometries = [g for g in kept_geometries(config) if g[1] == family]
+    first, last = index * size, min((index + 1) * size, len(geometries) * len(inner))
+    if index < 0 or first >= last:
+        raise SceneError("chunk", f"family {family!r} has no chunk {index}")
+    rows = []
+    for case in range(first, last):
+        kind, fam, lengths = geometries[case // len(inner)]
+        rows.append(case_row(config, kind, fam, lengths, case, inner[case % len(inner)], names,
+                         scenes))
+    return rows
+
+
+def chunk_scenes(config: dict, family: str, index: int) -> list[dict]:
+    """Scenes of chunk ``index`` of ``family``."""
+    return [r["scene"] for r in chunk_rows(config, family, index)]
+
+
+def case_config(config: dict) -> dict:
+    """The part of ``config`` that defines the cases (:data:`CASE_KEYS`).
+
+    Passed to the simulation jobs as their ``params``, so that editing the study name, the
+    families kept or a reduction setting re-runs no simulation.
+    """
+    return {k: copy.deepcopy(config[k]) for k in CASE_KEYS if k in config}
+
+
+def modal_requested(config: dict) -> bool:
+    """Whether the base scene asks for a modal analysis with an elastic formulation (the
+    study then has natural frequencies and Campbell diagrams)."""
+    base = config.get("base_scene") or {}
+    formulation = (base.get("discretization") or {}).get("formulation", "euler_bernoulli")
+    return bool(base.get("modal")) and formulation != "rigid"
+
+
+
+def axis_length(spec) -> int:
+    """Number of values of one grid axis (:func:`grid_values`), without building them."""
+    if isinstance(spec, Mapping):
+        return int(spec["num"])
+    return len(spec) if isinstance(spec, (list, tuple)) else 1
+
+
+def grid_axes(config: dict) -> list[tuple[str, object]]:
+    """(key path, spec) of every axis of the study's grid, in case-table order."""
+    axes = []
+    for kind, keys in GRID_KEYS.items():
+        grid = config.get("grids", {}).get(kind)
+        if grid:
+            axes += [(f"grids.{kind}.{k}", grid.get(k, [0.0])) for k in keys]
+    return axes + [("speeds", config["speeds"])]
+
+
+def grid_points(config: dict) -> int:
+    """Cases before the assembly check and the family filter: Σ over mechanism types of the
+    product of their axis lengths, × speeds × materials × sections (nothing enumerated)."""
+    inner = axis_length(config["speeds"]) * len(config["materials"]) * len(config["sections"])
+    total = 0
+    for kind, keys in GRID_KEYS.items():
+        grid = config.get("grids", {}).get(kind)
+        if grid:
+            total += math.prod(axis_length(grid.get(k, [0.0])) for k in keys)
+    return total * inner

@@ -1,0 +1,506 @@
+"""Study configs: read, validate against the schema and every check it cannot express,
+and estimate the study's size before any work.
+
+Bad input is refused up front: :func:`validate_config` (used by the Snakefile through
+:func:`check_config` and by ``ced check``) applies the JSON schema and every check it cannot
+express, and refuses studies whose estimated size (:class:`StudyEstimate`) is beyond
+:data:`MAX_GRID_POINTS`, :data:`MAX_OUTPUT_BYTES` or the machine's memory. Its only error is
+:class:`~ced.problem.errors.SceneError`, naming the config key (``grids.four_bar.crank[2]``).
+
+Examples
+--------
+>>> config = {"study": "example",
+...           "grids": {"four_bar": {"ground": 0.5, "crank": [0.1, 0.2],
+...                                  "coupler": [0.45], "rocker": [0.35]}},
+...           "speeds": [50.0, 100.0], "materials": ["steel"],
+...           "sections": [{"shape": "rectangle", "height": 0.005, "width": 0.01}],
+...           "chunk_size": 3}
+>>> estimate = study_estimate(config)
+>>> estimate.cases, estimate.chunks
+(4, {'crank_rocker': 2})
+>>> validate_config({**config, "speeds": [50.0, -1.0]})
+Traceback (most recent call last):
+...
+ced.problem.errors.SceneError: speeds[1]: must be > 0, got -1.0
+"""
+from __future__ import annotations
+
+import copy
+import math
+import os
+import re
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..problem.errors import SceneError, join, key_path, shown
+from ..problem.mechanism import assembly_error, topology
+from ..problem.scene import load_scene
+from ..response.batch import step_count
+from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
+                    grid_points, grid_values, inner_points, material_names, scene_for)
+
+__all__ = [
+    "load_config",
+    "apply_schema",
+    "validate_config",
+    "study_estimate",
+    "check_config",
+    "StudyEstimate",
+    "case_bytes",
+    "machine_memory",
+    "MAX_GRID_POINTS",
+    "MAX_OUTPUT_BYTES",
+    "SCHEMA_PATH",
+]
+
+#: Largest study accepted: grid points (cases before the assembly check and the family filter;
+#: counted without enumerating them). Classifying a geometry takes about 14 µs, so beyond this
+#: the parse-time case table alone takes minutes.
+MAX_GRID_POINTS = 10_000_000
+#: Largest estimated output accepted (uncompressed netCDF variables of every chunk), bytes.
+MAX_OUTPUT_BYTES = 10 * 10**12
+#: Peak memory of a chunk job ≈ BASE + FACTOR × chunk_size × (in-memory bytes of one case):
+#: the solver's float64 arrays, their concatenation across batches and the dataset handed to
+#: the netCDF writer (measured with tracemalloc on chunks of 16-64 cases of 256-1024 steps:
+#: 2.6-3.0).
+WORKING_MEMORY_FACTOR = 3
+#: Interpreter, numpy/scipy/xarray/netCDF4 and compiled kernels of a chunk job, bytes.
+BASE_MEMORY_BYTES = 300 * 2**20
+#: The JSON schema of study configs (applied by :func:`validate_config`).
+SCHEMA_PATH = Path(__file__).resolve().parents[2] / "workflow" / "schemas" / "config.schema.yaml"
+
+_TYPE_WORDS = {"number": "a number", "integer": "an integer", "string": "a string",
+               "array": "a list", "object": "a mapping", "boolean": "true or false",
+               "null": "null"}
+
+
+def load_config(path: str | Path) -> dict:
+    """Read a study config file as Snakemake does (YAML 1.1 via PyYAML, or JSON).
+
+    Raises :class:`SceneError` at ``<config>`` for a file that cannot be read or parsed or
+    whose top level is not a mapping.
+    """
+    import yaml
+
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError("<config>", f"cannot read {str(path)!r}: {err}") from None
+    try:
+        config = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise SceneError("<config>", f"invalid YAML: {err}") from None
+    if not isinstance(config, dict):
+        raise SceneError("<config>", f"the top level must be a mapping, got {shown(config)}")
+    return config
+
+
+def _schema() -> dict:
+    import yaml
+
+    if not SCHEMA_PATH.exists():
+        raise FileNotFoundError(f"config schema not found at {SCHEMA_PATH} (ced must be "
+                                f"installed from its repository, e.g. pip install -e .)")
+    return yaml.safe_load(SCHEMA_PATH.read_text(encoding="utf-8"))
+
+
+def _path(parts) -> str:
+    """Dotted key path of a JSON-schema error location (``grids.four_bar.crank[2]``)."""
+    path = ""
+    for part in parts:
+        path = f"{path}[{part}]" if isinstance(part, int) else key_path(path, part)
+    return path or "<config>"
+
+
+def _with_hint(err: SceneError) -> SceneError:
+    """Add a hint to an error about a number written so that YAML 1.1 reads a string.
+
+    Snakemake reads config files with PyYAML (YAML 1.1), where ``1e-3`` and ``2.1e11`` (no
+    dot, or no sign in the exponent) are strings; ``1.0e-3`` and ``2.1e+11`` are numbers.
+    """
+    match = re.search(r"got '([^']*)'$", err.message)
+    if match:
+        try:
+            float(match.group(1))
+        except ValueError:
+            return err
+        return SceneError(err.path, err.message + " (a string, not a number: Snakemake reads "
+                                                  "config files as YAML 1.1, where exponent "
+                                                  "form needs a dot and a signed exponent, "
+                                                  "e.g. 1.0e-3, 2.1e+11)")
+    return err
+
+
+def _schema_error(err) -> SceneError:
+    """A :class:`SceneError` (key path + plain message) for one ``jsonschema`` error."""
+    from jsonschema.exceptions import best_match
+
+    kind, rule, value = err.validator, err.validator_value, err.instance
+    path = _path(err.absolute_path)
+    got = f"got {shown(value)}"
+    if kind == "oneOf":
+        branches = [sub.get("type") for sub in rule]
+        # Report inside the branch whose type the value has (e.g. a range missing "num").
+        fitting = [i for i, sub in enumerate(rule)
+                   if not any(e.validator == "type" and list(e.relative_schema_path)[:2]
+                              == [i, "type"] for e in err.context)]
+        if len(fitting) == 1:
+            errors = [e for e in err.context if e.relative_schema_path[0] == fitting[0]]
+            missing = [e for e in errors if e.validator == "required"]
+            if missing and len(missing) == len(errors):
+                names = [k for k in missing[0].validator_value if k not in value]
+                return SceneError(path, f"missing {join(names)}; required: "
+                                        f"{join(missing[0].validator_value)}")
+            return _schema_error(best_match(errors))
+        words = " or ".join(_TYPE_WORDS.get(t, str(t)) for t in branches)
+        return SceneError(path, f"must be {words}, {got}")
+    if kind == "additionalProperties":
+        allowed = list(err.schema.get("properties", {}))
+        extra = next(k for k in value if k not in allowed)
+        return SceneError(key_path(path.replace("<config>", ""), extra),
+                          f"unknown key {shown(extra)}; allowed: {join(allowed)}")
+    if kind == "required":
+        missing = [k for k in rule if k not in value]
+        return SceneError(key_path(path.replace("<config>", ""), missing[0]),
+                          f"missing; required keys here: {join(rule)}")
+    words = {
+        "type": lambda: f"must be {_TYPE_WORDS.get(rule, str(rule))}, {got}",
+        "enum": lambda: f"unknown value {shown(value)}; allowed: {join(rule)}",
+        "exclusiveMinimum": lambda: f"must be > {rule:g}, {got}",
+        "minimum": lambda: f"must be >= {rule:g}, {got}",
+        "maximum": lambda: f"must be <= {rule:g}, {got}",
+        "exclusiveMaximum": lambda: f"must be < {rule:g}, {got}",
+        "minItems": lambda: "must not be empty" if rule == 1 else f"needs {rule} items, {got}",
+        "minProperties": lambda: f"must not be empty; give one of: "
+                                 f"{join(err.schema.get('properties', {}))}",
+        "uniqueItems": lambda: f"must not repeat a value, {got}",
+        "pattern": lambda: f"must match {rule}, {got}",
+    }
+    return _with_hint(SceneError(path, words[kind]() if kind in words else err.message))
+
+
+def apply_schema(config: Mapping) -> dict:
+    """A copy of ``config`` checked against :data:`SCHEMA_PATH`, schema defaults filled in.
+
+    Defaults are set while validating (as ``snakemake.utils.validate`` does), so a default
+    inside an optional block (``grids.slider_crank.offset``) appears only with the block.
+    The first error (``jsonschema``'s best match) becomes a :class:`SceneError`.
+    """
+    from jsonschema import Draft202012Validator, validators
+    from jsonschema.exceptions import best_match
+
+    def set_defaults(validator, properties, instance, schema):
+        if isinstance(instance, dict):
+            for name, sub in properties.items():
+                if "default" in sub:
+                    instance.setdefault(name, copy.deepcopy(sub["default"]))
+        yield from Draft202012Validator.VALIDATORS["properties"](
+            validator, properties, instance, schema)
+
+    checker = validators.extend(Draft202012Validator, {"properties": set_defaults})(_schema())
+    filled = copy.deepcopy(dict(config))
+    error = best_match(checker.iter_errors(filled))
+    if error is not None:
+        raise _schema_error(error)
+    return filled
+
+
+def _check_finite(value, path: str) -> None:
+    """Refuse NaN and ±inf anywhere in ``value`` (``base_scene`` is left to ced.problem.scene)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        raise SceneError(path, f"must be a finite number, got {shown(value)}")
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            if not (path == "<config>" and key == "base_scene"):
+                _check_finite(item, key_path("" if path == "<config>" else path, key))
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            _check_finite(item, f"{path}[{i}]")
+
+
+def case_bytes(scene: dict, itemsize: int = 4) -> int:
+    """Bytes of one case's output variables (DESIGN §5), uncompressed.
+
+    With S output steps (``revolutions × steps_per_revolution // every + 1``), L links,
+    J joints, P stations, A modal angles, M modes, g = 1 for a slider-crank (guide force), e = 1
+    for an elastic formulation and m = 1 if a modal analysis is asked::
+
+        bytes = 8 S (3 + g + 3 L + 4 J) + e itemsize S 5 L P + e (8·5 L + 8 m A M) + 8·3 + 161
+
+    (time, crank angle, input torque, guide force; link angle, velocity, acceleration; joint
+    position and force; the five station fields, float32 on disk (``itemsize`` 4) and float64
+    in the solver (8); five per-link peaks; natural frequencies; three per-case scalars; status,
+    message and case coordinates.)
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (:func:`ced.problem.scene.load_scene`).
+    itemsize : int
+        Bytes per value of the station fields.
+    """
+    topo = topology(scene["mechanism"]["type"])
+    steps = step_count(scene) // scene["outputs"]["every"] + 1
+    links, joints = len(topo.link_names), len(topo.joint_names)
+    stations = scene["outputs"]["stations"]
+    disc = scene["discretization"]
+    elastic = disc == "auto" or disc["formulation"] != "rigid"
+    guide = scene["mechanism"]["type"] == "slider_crank"
+    modal = scene.get("modal") or {"angles": 0, "modes": 0}
+    total = 8 * steps * (3 + guide + 3 * links + 4 * joints) + 8 * 3 + 161
+    if elastic:
+        total += itemsize * steps * 5 * links * stations + 8 * 5 * links
+        total += 8 * modal["angles"] * modal["modes"]
+    return total
+
+
+def machine_memory() -> int:
+    """Physical memory of this machine, bytes (``os.sysconf``)."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def _size(n: float) -> str:
+    """``1.2 GB`` (decimal units) for a byte count."""
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    raise AssertionError
+
+
+@dataclass(frozen=True)
+class StudyEstimate:
+    """Size of a validated study (see :func:`case_bytes` for the per-case formula).
+
+    Attributes
+    ----------
+    grid_points : int
+        Cases before the assembly check and the family filter.
+    cases : int
+        Cases simulated.
+    chunks : dict of str to int
+        Chunk jobs of each family.
+    output_bytes : int
+        Σ over cases of :func:`case_bytes` (float32 station fields), uncompressed.
+    largest_chunk : int
+        Cases of the largest chunk job (``chunk_size`` or the size of the largest family).
+    chunk_memory_bytes : int
+        Estimated peak memory of the largest chunk job:
+        ``BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR × largest_chunk × case_bytes(itemsize=8)``.
+    """
+
+    grid_points: int
+    cases: int
+    chunks: dict
+    output_bytes: int
+    largest_chunk: int
+    chunk_memory_bytes: int
+
+    def summary(self) -> str:
+        jobs = sum(self.chunks.values())
+        per_family = ", ".join(f"{f} {n}" for f, n in self.chunks.items())
+        return (f"{self.cases} cases ({self.grid_points} grid points before the assembly "
+                f"check and family filter) in {jobs} chunk jobs ({per_family}); estimated "
+                f"output {_size(self.output_bytes)} uncompressed; estimated peak memory per "
+                f"chunk job {_size(self.chunk_memory_bytes)}")
+
+
+def _scene_error(err: SceneError, kind: str, material: int, section: int) -> SceneError:
+    """Re-home an error in a case's scene to the config key that wrote the value."""
+    err = _with_hint(err)
+    path = err.path
+    moves = {"links.default.material": f"materials[{material}]",
+             "links.default.section": f"sections[{section}]", "drive.speed": "speeds"}
+    for prefix, target in moves.items():
+        if path == prefix or path.startswith(prefix + ".") or path.startswith(prefix + "["):
+            return SceneError(target + path[len(prefix):], err.message)
+    if path.startswith("mechanism.") and path.split(".")[1] in GRID_KEYS[kind]:
+        return SceneError(f"grids.{kind}.{path.split('.')[1]}", err.message)
+    if path == "<scene>":
+        return SceneError("base_scene", err.message)
+    return SceneError(f"base_scene.{path}", err.message)
+
+
+def _check_scenes(config: dict, geometries: list) -> dict[str, dict]:
+    """Load one scene per (family, material) and per (family, section) kept; return a
+    normalized scene of each mechanism type."""
+    names = material_names(config)
+    first = {}
+    for kind, family, lengths in geometries:
+        first.setdefault(family, (kind, lengths))
+    speed = grid_values(config["speeds"], "speeds")[0]
+    normalized = {}
+    for family, (kind, lengths) in first.items():
+        pairs = [(m, 0) for m in range(len(names))] + [
+            (0, s) for s in range(1, len(config["sections"]))]
+        for m, s in pairs:
+            row = case_row(config, kind, family, lengths, 0, (speed, m, s), names, True)
+            try:
+                normalized.setdefault(kind, load_scene(row["scene"]))
+            except SceneError as err:
+                raise _scene_error(err, kind, m, s) from None
+    return normalized
+
+
+def _check_axes(config: dict) -> None:
+    """Every axis well formed with distinct values (they label the grid maps' dimensions)."""
+    for path, spec in grid_axes(config):
+        values = grid_values(spec, path)
+        repeated = sorted(v for v, n in Counter(values).items() if n > 1)
+        if repeated:
+            raise SceneError(path, f"values must be distinct, repeated: {join(repeated)}")
+
+
+def _check_families(config: dict, geometries: list) -> None:
+    """Every mechanism type of the grids has an assemblable geometry, and a kept family has
+    a case."""
+    for kind, keys in GRID_KEYS.items():
+        grid = config["grids"].get(kind)
+        if grid and not any(g[0] == kind for g in geometries):
+            spec = {k: grid.get(k, [0.0]) for k in keys}
+            lengths = {k: grid_values(spec[k])[0] for k in keys}
+            if kind == "four_bar":
+                lengths = {"ground": grid["ground"], **lengths}
+            example = ", ".join(f"{k} {v:g}" for k, v in lengths.items())
+            reason = assembly_error({"type": kind, **lengths})
+            raise SceneError(f"grids.{kind}", f"no geometry of the grid can be assembled, "
+                                              f"e.g. {example}: {reason}")
+    produced = {}
+    for _, family, _ in geometries:
+        produced[family] = produced.get(family, 0) + 1
+    keep = config["families"]
+    if not any(f in produced for f in keep):
+        made = ", ".join(f"{f} ({n} geometries)" for f, n in produced.items())
+        raise SceneError("families", f"the grids give no case of the families asked for "
+                                     f"({join(keep)}); they produce: {made}")
+
+
+def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyEstimate:
+    size = int(config["chunk_size"])
+    inner = len(inner_points(config))
+    sizes: dict[str, int] = {}
+    kinds: dict[str, str] = {}
+    for kind, family, _ in geometries:
+        if family in config["families"]:
+            sizes[family] = sizes.get(family, 0) + inner
+            kinds[family] = kind
+    output = sum(n * case_bytes(scenes[kinds[f]]) for f, n in sizes.items())
+    memory, largest = max((min(n, size) * case_bytes(scenes[kinds[f]], itemsize=8), min(n, size))
+                          for f, n in sizes.items())
+    return StudyEstimate(
+        grid_points=grid_points(config), cases=sum(sizes.values()),
+        chunks={f: math.ceil(n / size) for f, n in sizes.items()}, output_bytes=output,
+        largest_chunk=largest,
+        chunk_memory_bytes=BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR * memory)
+
+
+#: A linkage of each mechanism type that can be assembled, to size a case before the grid is
+#: built (the sizes of :func:`case_bytes` do not depend on the lengths).
+_STAND_IN = {"four_bar": {"ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35},
+             "slider_crank": {"crank": 0.15, "rod": 0.3, "offset": 0.0}}
+
+
+def _upper_bounds(config: dict) -> str:
+    """``; at most … output, … per chunk job`` from the grid points and the base scene, or
+    ``""`` if the base scene is itself invalid (reported once the study is small enough)."""
+    output, per_case = 0, 0
+    inner = axis_length(config["speeds"]) * len(config["materials"]) * len(config["sections"])
+    for kind, keys in GRID_KEYS.items():
+        grid = config["grids"].get(kind)
+        if not grid:
+            continue
+        scene = scene_for(config, kind, _STAND_IN[kind], 1.0, config["materials"][0],
+                           config["sections"][0])
+        try:
+            scene = load_scene(scene)
+        except SceneError:
+            return ""
+        output += inner * math.prod(axis_length(grid.get(k, [0.0])) for k in keys) \
+            * case_bytes(scene)
+        per_case = max(per_case, case_bytes(scene, itemsize=8))
+    chunk = min(config["chunk_size"], grid_points(config))
+    memory = BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR * chunk * per_case
+    return (f"; estimated output at most {_size(output)} uncompressed, peak memory per chunk "
+            f"job about {_size(memory)}")
+
+
+def _largest_axis(config: dict) -> str:
+    return max(grid_axes(config), key=lambda a: axis_length(a[1]))[0]
+
+
+def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyEstimate]:
+    config = apply_schema(config)
+    _check_finite(config, "<config>")
+    points = grid_points(config)
+    if points > MAX_GRID_POINTS:
+        # Refused before any value is built: bounds on cases, output and memory are enough.
+        raise SceneError(_largest_axis(config), (
+            f"the study has {points:.4g} grid points (cases before the assembly check and "
+            f"family filter), more than the limit of {MAX_GRID_POINTS:.4g}; axis lengths: "
+            + ", ".join(f"{p} {axis_length(s)}" for p, s in grid_axes(config))
+            + f", materials {len(config['materials'])}, sections {len(config['sections'])}"
+            + _upper_bounds(config)))
+    _check_axes(config)
+    try:
+        names = material_names(config)
+    except SceneError as err:
+        raise _with_hint(err) from None
+    repeated = sorted(n for n, count in Counter(names).items() if count > 1)
+    if repeated:
+        raise SceneError("materials", f"material names must be distinct, repeated: "
+                                      f"{join(repeated)}")
+    geometries = assemblable_geometries(config)
+    _check_families(config, geometries)
+    kept = [g for g in geometries if g[1] in config["families"]]
+    estimate = _estimate(config, kept, _check_scenes(config, kept))
+    if estimate.output_bytes > MAX_OUTPUT_BYTES:
+        raise SceneError("grids", f"estimated output {_size(estimate.output_bytes)} exceeds the "
+                                  f"limit of {_size(MAX_OUTPUT_BYTES)}: {estimate.summary()}")
+    memory = machine_memory() if memory is None else memory
+    if estimate.chunk_memory_bytes > memory:
+        raise SceneError("chunk_size", (
+            f"a chunk of {estimate.largest_chunk} cases needs about "
+            f"{_size(estimate.chunk_memory_bytes)} of memory, more than the "
+            f"{_size(memory)} of this machine; use a smaller chunk_size ({estimate.summary()})"))
+    return config, estimate
+
+
+def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
+    """Check a study config completely and return a copy with the schema defaults filled in.
+
+    In order: the JSON schema (:func:`apply_schema`: types, ranges, unknown keys, families);
+    finite numbers; the study size (:data:`MAX_GRID_POINTS`, counted without building the
+    grid); distinct grid values and material names; at least one assemblable geometry for
+    each mechanism type of ``grids`` and a case for the families asked for; one scene per
+    (family, material) and (family, section) through :func:`ced.problem.scene.load_scene`
+    (errors are reported at the config key that wrote the value: ``materials[1].nu``,
+    ``sections[0].height``, ``base_scene.time.start``); the estimated output
+    (:data:`MAX_OUTPUT_BYTES`) and the peak memory of a chunk job (``memory``, bytes; default
+    this machine's, :func:`machine_memory`). See :class:`StudyEstimate` for the estimates.
+
+    Raises
+    ------
+    SceneError
+        The only error for bad input: ``err.path`` is the key path (``grids.four_bar.crank[2]``,
+        ``speeds``, ``<config>`` for the document), ``err.message`` what is allowed.
+    """
+    return _validated(config, memory)[0]
+
+
+def study_estimate(config: Mapping, *, memory: int | None = None) -> StudyEstimate:
+    """Validate ``config`` (:func:`validate_config`) and return its :class:`StudyEstimate`."""
+    return _validated(config, memory)[1]
+
+
+def check_config(config: dict) -> dict[str, int]:
+    """Validate ``config`` in place for the Snakefile (defaults filled, as
+    ``snakemake.utils.validate`` does) and return :func:`chunks`.
+
+    Everything :func:`validate_config` checks fails here, at parse time, before any job.
+    """
+    filled, estimate = _validated(config)
+    config.clear()
+    config.update(filled)
+    return dict(estimate.chunks)

@@ -1,0 +1,201 @@
+"""discretization: auto — measured error ladders, the cheapest setting under the tolerance, and
+the achieved error."""
+import json
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings, strategies as st
+
+from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, MAX_LADDER_STEPS, MODES,
+                                     RESONANT_HARMONICS, SAFETY, choose, cost, interpolate,
+                                     ladder_errors, predicted_error, resolve_discretization)
+from ced.problem.scene import load_scene
+from ced.simulation.simulate import simulate
+
+
+def reference_raw(**changes) -> dict:
+    raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+    raw.pop("modal")
+    raw.update(changes)
+    return raw
+
+
+def test_ladder_errors_are_exact_for_second_order_convergence():
+    h = 1.0 / (32 * 2.0 ** np.arange(5))
+    peaks = 7.0 * (1.0 + 3.0 * h**2)
+    assert ladder_errors(peaks) == pytest.approx(3.0 * h**2 / 1.0, rel=1e-9)
+
+
+@given(st.lists(st.floats(0.5, 2.0), min_size=3, max_size=8))
+@settings(max_examples=200, deadline=None)
+def test_ladder_errors_never_grow_under_refinement(peaks):
+    errors = ladder_errors(peaks)
+    assert np.all(np.diff(errors) <= 1e-15)
+    # The last rung is never credited with less than its own Richardson correction.
+    limit = peaks[-1] + (peaks[-1] - peaks[-2]) / 3.0
+    assert errors[-1] * abs(limit) >= abs(peaks[-1] - peaks[-2]) / 3.0 * (1 - 1e-12)
+
+
+def test_ladder_errors_distrust_a_rung_at_a_sign_change():
+    # The 2nd rung happens to sit on the limit: it inherits the finer rung's larger error.
+    errors = ladder_errors([1.1, 1.0, 1.0 + 4e-3, 1.0 + 1e-3])
+    assert errors[1] >= errors[2] > 0.0
+
+
+def test_interpolation_between_and_beyond_rungs():
+    levels, errors = np.array([32.0, 64.0, 128.0]), np.array([4.5e-3, 1e-3, 2.5e-4])
+    # On a rung, its error; beyond the finest, order 2 from it.
+    assert interpolate(levels, errors, [64.0, 256.0]) == pytest.approx([1e-3, 2.5e-4 / 4])
+    # Between rungs, the power law through the two (order log2(4.5) here).
+    assert interpolate(levels, errors, [48.0])[0] == pytest.approx(1e-3 * 4.5**0.415, 1e-3)
+    assert interpolate(levels, [1e-3, 1e-3, 1e-3], [40.0])[0] == pytest.approx(1e-3)
+    assert np.isinf(interpolate(levels, errors, [16.0])[0])  # coarser than measured
+    # A drop much steeper than the order (100× from 32 to 64 steps: a mode resolved in
+    # between) is pre-asymptotic: the coarser rung's error holds up to the finer rung.
+    steep = np.array([1e-1, 1e-3, 2.5e-4])
+    assert interpolate(levels, steep, [40.0, 63.0]) == pytest.approx([1e-1, 1e-1])
+
+
+def test_cost_model_prefers_the_cheaper_model():
+    c, full = cost(np.array([2, 4, 8, 128]), 128, 1.0, 2)
+    assert list(full) == [True, False, False, False]  # the full mesh only up to 4 elements
+    assert np.all(np.diff(c) > 0)
+    # Steps dominate: doubling them costs more than quadrupling a fine mesh.
+    assert cost(8, 256, 1.0, 1)[0] > cost(32, 128, 1.0, 1)[0]
+
+
+ladders = st.lists(st.floats(1e-7, 1e-1), min_size=3, max_size=6).map(
+    lambda e: np.sort(np.array(e))[::-1])
+
+
+@given(space=ladders, time=ladders, tol=st.sampled_from([1e-2, 1e-3, 1e-4]),
+       flexible=st.sampled_from([1, 2]))
+@settings(max_examples=40, deadline=None)
+def test_choice_meets_the_tolerance_at_least_cost(space, time, tol, flexible):
+    x = (2.0 * 2.0 ** np.arange(len(space)), space)
+    t = (FIRST_STEPS * 2.0 ** np.arange(len(time)), time)
+    elements, steps, predicted, _ = choose(x, t, tol, 1.0, flexible)
+    # Brute force over the same grid, within the ladders.
+    ne, spr = np.meshgrid(_ELEMENTS[_ELEMENTS <= x[0][-1]],
+                          np.arange(FIRST_STEPS, t[0][-1] + 1, 8), indexing="ij")
+    grid_error = predicted_error(x, t, ne, spr)
+    meeting = grid_error <= tol / SAFETY
+    if meeting.any():  # nothing that meets the target is cheaper
+        assert predicted == pytest.approx(float(predicted_error(x, t, elements, steps)))
+        assert predicted <= tol / SAFETY
+        best = cost(ne, spr, 1.0, flexible)[0][meeting].min()
+        assert float(cost(elements, steps, 1.0, flexible)[0]) == pytest.approx(best)
+    else:  # unreachable: the ladders' finest rungs, measured
+        assert (elements, steps) == (int(x[0][-1]), int(t[0][-1]))
+
+
+def fake_solver(peak, omega1=1e9, log=None):
+    """A solve() for resolve_discretization: peak(elements, steps), a first frequency and the
+    scene's speed."""
+    def solve(scenes):
+        out = {"peak": [], "omega1": [], "speed": []}
+        for s in scenes:
+            ne = s["discretization"]["elements_per_link"]
+            spr = s["time"]["steps_per_revolution"]
+            if log is not None:
+                log.append((ne, spr))
+            out["peak"].append(peak(ne, spr))
+            out["omega1"].append(omega1 if s["modal"] else np.nan)
+            out["speed"].append(s["drive"]["speed"])
+        return {k: np.array(v) for k, v in out.items()}
+    return solve
+
+
+@pytest.mark.parametrize("tolerance", [1e-2, 1e-3, 1e-4])
+def test_resolution_of_a_smooth_problem_meets_the_tolerance_cheaply(tolerance):
+    # σ(n, s) = 1 + 0.3/n³ − 20/s²: space order 3, time order 2, errors of opposite sign.
+    def true_error(ne, spr):
+        return abs(0.3 / ne**3 - 20.0 / spr**2)
+
+    scene = load_scene(reference_raw(discretization="auto", tolerance=tolerance))
+    (chosen,), (report,) = resolve_discretization(
+        [scene], fake_solver(lambda ne, spr: 1.0 + 0.3 / ne**3 - 20.0 / spr**2))
+    ne = chosen["discretization"]["elements_per_link"]
+    spr = chosen["time"]["steps_per_revolution"]
+    assert true_error(ne, spr) < tolerance and report["tolerance_met"]
+    assert report["predicted_error"] >= 0.3 / ne**3 + 20.0 / spr**2 - 1e-12  # a bound
+    # Within 2× of the cheapest setting of the grid whose true error (with the lucky
+    # cancellation of the two signs excluded) meets the tolerance.
+    grid_ne, grid_spr = np.meshgrid(_ELEMENTS, np.arange(FIRST_STEPS, 1 << 16, 8),
+                                    indexing="ij")
+    best = cost(grid_ne, grid_spr, 1.0, 1)[0][
+        0.3 / grid_ne**3 + 20.0 / grid_spr**2 < tolerance].min()
+    assert float(cost(ne, spr, 1.0, 1)[0]) < 2.0 * best
+
+
+def test_unreachable_tolerance_is_reported_with_the_finest_rungs():
+    rng = np.random.default_rng(0)
+    scene = load_scene(reference_raw(discretization="auto", tolerance=1e-4))
+    (chosen,), (report,) = resolve_discretization(
+        [scene], fake_solver(lambda ne, spr: 1.0 + 0.1 * rng.standard_normal()))
+    assert not report["tolerance_met"]
+    assert chosen["time"]["steps_per_revolution"] == MAX_LADDER_STEPS
+    assert report["time_ladder"][-1][0] == MAX_LADDER_STEPS
+
+
+def test_unmet_tolerance_is_flagged_in_status():
+    # The change point: its peak stress grows as a step nears the singular position, so no
+    # ladder converges to 1e-4; the case is flagged, with its estimate, never NaN.
+    raw = reference_raw(discretization="auto", tolerance=1e-4,
+                        mechanism={"type": "four_bar", "ground": 0.25, "crank": 0.05,
+                                   "coupler": 0.2, "rocker": 0.1})
+    raw["drive"] = {"speed": 200.0}
+    raw["links"] = {"default": {"material": "steel",
+                                "section": {"shape": "rectangle", "height": 0.02,
+                                            "width": 0.01}},
+                    "crank": {"flexible": False}}
+    ds = simulate(raw)
+    report = json.loads(str(ds.discretization_auto.values[0]))
+    assert not report["tolerance_met"]
+    assert "tolerance_unmet" in str(ds.status.attrs["flag_meanings"])
+    assert int(ds.status[0]) & 128 and float(ds.error_estimate[0]) > 1e-4
+    assert np.isfinite(ds.peak_stress.values).all()
+
+
+@pytest.mark.parametrize("harmonic, finest", [(10, 128), (15, 256), (20, 128)])
+def test_an_excitable_mode_is_resolved_by_the_time_ladder(harmonic, finest):
+    # Peaks independent of the step converge at once (3 rungs, up to 128 steps), unless a mode
+    # the crank harmonics can excite (below the 16th) needs more to reach ω₁h ≤ 1/2: at the
+    # 15th harmonic 4π·15 = 188 steps, so the ladder climbs to 256.
+    speed = 100.0
+    scene = load_scene(reference_raw(discretization="auto", drive={"speed": speed}))
+    assert harmonic < RESONANT_HARMONICS or harmonic == 20
+    log = []
+    resolve_discretization([scene], fake_solver(lambda ne, spr: 1.0, harmonic * speed, log))
+    assert max(s for _, s in log) == finest
+
+
+@pytest.mark.parametrize("tolerance", [1e-2, 1e-3])
+def test_reference_four_bar_meets_the_tolerance(reference_four_bar_peak, tolerance):
+    ds = simulate(reference_raw(discretization="auto", tolerance=tolerance))
+    choice = json.loads(str(ds.discretization_auto.values[0]))
+    assert choice["modes_per_link"] in (0, MODES) and choice["tolerance"] == tolerance
+    true = abs(float(ds.peak_stress.max()) - reference_four_bar_peak) / reference_four_bar_peak
+    assert true < tolerance
+    assert true <= choice["predicted_error"] <= tolerance / SAFETY
+    # The per-case estimate (conservative by design) stays within a small factor of it.
+    assert float(ds.error_estimate[0]) < 3.0 * tolerance
+    assert ds.discretization_auto.attrs["long_name"].startswith("discretization chosen")
+
+
+def test_scene_without_auto_reports_nothing():
+    raw = reference_raw(discretization={"elements_per_link": 2})
+    raw["time"]["steps_per_revolution"] = 32
+    assert "discretization_auto" not in simulate(raw)
+
+
+def test_several_auto_scenes_share_the_most_demanding_discretization():
+    raw = reference_raw(discretization="auto")
+    fast = {**raw, "drive": {"speed": 150.0}}
+    ds = simulate([raw, fast])
+    choices = [json.loads(str(v)) for v in ds.discretization_auto.values]
+    own = [c["own_choice"] for c in choices]
+    assert choices[0]["steps_per_revolution"] == choices[1]["steps_per_revolution"] == max(
+        s for _, s in own)
+    assert choices[0]["elements_per_link"] == max(e for e, _ in own)

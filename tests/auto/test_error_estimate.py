@@ -1,0 +1,111 @@
+"""Error estimates: companions, the a-priori time term, and the estimate against true errors."""
+import copy
+
+import numpy as np
+import pytest
+import yaml
+
+from ced.auto.error_estimate import (SAFETY, algorithmic_damping, coarsening_allowed, combine,
+                                     companions)
+from ced.problem.scene import load_scene
+from ced.simulation.simulate import simulate
+
+
+def _scene(ne: int, spr: int, **time) -> dict:
+    raw = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+    raw.pop("modal")
+    raw["discretization"] = {"elements_per_link": ne}
+    raw["time"].update(steps_per_revolution=spr, **time)
+    return raw
+
+
+def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
+    (companion,) = companions(load_scene(_scene(8, 256)), omega1_h=0.2)
+    # Order 2 in space: 8 → 4 elements grows the error 4×, like halving the step.
+    assert companion.scene["discretization"]["elements_per_link"] == 4
+    assert companion.scene["time"]["steps_per_revolution"] == 128
+    assert companion.scene["modal"] is None
+    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY times that.
+    assert companion.factor == pytest.approx(SAFETY / 3.0)
+
+
+@pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.6), (256, 1.5)])
+def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omega1_h):
+    # Fewer than 64 steps in the companion, or ω₁h above 1 there while below π here.
+    assert not coarsening_allowed(steps, omega1_h)
+    space, time = companions(load_scene(_scene(8, steps)), omega1_h)
+    assert space.scene["discretization"]["elements_per_link"] == 4
+    assert space.scene["time"]["steps_per_revolution"] == steps
+    assert time.scene["discretization"]["elements_per_link"] == 8
+    assert time.scene["time"]["steps_per_revolution"] == 2 * steps
+    assert time.factor == pytest.approx(SAFETY / (1.0 - 1.0 / 4.0))
+
+
+def test_stiff_first_mode_allows_halving():
+    # ω₁h ≥ π at both step sizes: the mode responds quasi-statically either way.
+    assert coarsening_allowed(256, 3.5)
+    assert coarsening_allowed(256, 0.4) and not coarsening_allowed(256, 0.6)
+
+
+@pytest.mark.parametrize("elements", [1, 2, 4])
+def test_small_meshes_are_refined_not_coarsened(elements):
+    space, time = companions(load_scene(_scene(elements, 256)), omega1_h=0.2)
+    assert space.scene["discretization"]["elements_per_link"] == 2 * elements
+    assert space.factor == pytest.approx(SAFETY / (1.0 - 1.0 / 4.0))
+    assert time.scene["time"]["steps_per_revolution"] == 128
+    assert time.factor == pytest.approx(SAFETY / 3.0)
+
+
+
+
+def test_combine_is_relative_and_adds_the_companions():
+    est = combine(np.array([100.0, 0.0]), [np.array([90.0, 0.0])], [1.0])
+    assert est == pytest.approx([0.1, 0.0])
+    two = combine(np.array([100.0]), [np.array([90.0]), np.array([98.0])], [1.0, 4.0])
+    assert two[0] == pytest.approx(0.1 + 0.08)
+
+
+@pytest.mark.parametrize("ne, spr, integrator", [
+    (4, 64, "generalized_alpha"), (8, 128, "generalized_alpha"), (16, 256, "newmark"),
+    (8, 128, "houbolt"), (8, 32, "houbolt"), (2, 32, "hht")])
+def test_estimate_brackets_the_true_error(reference_four_bar_peak, ne, spr, integrator):
+    ds = simulate(_scene(ne, spr, integrator=integrator))
+    true = abs(float(ds.peak_stress.max()) - reference_four_bar_peak) / reference_four_bar_peak
+    estimate = float(ds.error_estimate[0])
+    assert true <= estimate <= 10.0 * true  # the band issue 6 asks for on 90 % of settings
+    assert ds.error_estimate.attrs["units"] == "1"
+
+
+def test_no_estimate_when_not_asked_or_rigid():
+    raw = _scene(4, 32)
+    raw["outputs"] = {"error_estimate": False}
+    assert "error_estimate" not in simulate(raw)
+    rigid = copy.deepcopy(_scene(4, 32))
+    rigid["discretization"] = {"formulation": "rigid"}
+    assert "error_estimate" not in simulate(rigid)
+
+
+def test_dissipative_scheme_refines_until_the_first_mode_is_resolved():
+    hb = load_scene(_scene(8, 64, integrator="houbolt"))
+    ga = load_scene(_scene(8, 64))
+    # Houbolt damps ω₁h = 3.2 heavily; its companion goes to 8× the steps (ω₁h = 0.4).
+    assert algorithmic_damping(hb["time"], 1.6) > 0.1 > algorithmic_damping(ga["time"], 1.6)
+    assert companions(hb, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 512
+    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(SAFETY / (1.0 - 1.0 / 64.0))
+    assert companions(ga, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 128
+
+
+def test_failing_companion_leaves_the_case_and_no_estimate(monkeypatch):
+    import ced.simulation.simulate as simulation
+
+    real = simulation.solve_batch
+
+    def failing_companions(batch):
+        if "companion" in batch.scenes[0].get("name", ""):
+            raise FloatingPointError("injected")
+        return real(batch)
+
+    monkeypatch.setattr(simulation, "solve_batch", failing_companions)
+    ds = simulate(_scene(4, 128))
+    assert np.isnan(ds.error_estimate[0]) and np.isfinite(ds.peak_stress).all()
+    assert int(ds.status[0]) & 16 == 0  # the case itself did not fail

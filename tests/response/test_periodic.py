@@ -1,0 +1,41 @@
+"""Periodic steady state by shooting (ced.response.periodic): Floquet flags on systems with
+known stability."""
+import numpy as np
+
+from ced.response.integrators import newmark as average_acceleration
+from ced.response.periodic import INSTABILITY_MARGIN, RESONANCE_GAP, shoot
+
+
+def _periodic_1dof(stiffness, force, period=2 * np.pi, steps=256, scheme=None):
+    """Shoot a 1-DOF q̈ + k(t) q = f(t) with the solver's own shooting code."""
+    h = np.array([period / steps])
+
+    def terms(k):
+        t = k * h[0]
+        return (np.ones((1, 1, 1)), None, np.full((1, 1, 1), stiffness(t)),
+                np.full((1, 1), force(t)))
+    return shoot(scheme or average_acceleration(), terms, h, steps, 1, 1)
+
+
+def test_mathieu_principal_tongue_is_parametrically_unstable():
+    # q̈ + (δ + ε cos t) q = 0 with δ = 1/4, ε = 0.2 lies inside the principal instability
+    # tongue |δ − 1/4| < ε/2 (Mathieu; Nayfeh & Mook 1979 §5.2): a Floquet multiplier > 1.
+    state, mu, _ = _periodic_1dof(lambda t: 0.25 + 0.2 * np.cos(t), lambda t: 0.0)
+    assert np.abs(mu).max() > 1.0 + INSTABILITY_MARGIN
+    assert all(np.all(np.isfinite(s)) for s in state)
+    # Outside the tongue (δ = 0.5) the multipliers stay on the unit circle.
+    _, mu, _ = _periodic_1dof(lambda t: 0.5 + 0.2 * np.cos(t), lambda t: 0.0)
+    assert np.abs(mu).max() < 1.0 + 1e-9
+
+
+def test_exact_resonance_without_damping_is_flagged_and_finite():
+    # q̈ + q = cos t: forcing at the natural frequency, no damping. The discrete multiplier of
+    # the mode is within (ωh)²/12 of the forcing period, |1 − μ| ≪ RESONANCE_GAP, and that
+    # mode carries the periodic response: resonant, with a finite periodic state.
+    state, mu, resonant = _periodic_1dof(lambda t: 1.0, np.cos)
+    assert resonant[0]
+    assert np.abs(1 - mu).min() < RESONANCE_GAP
+    assert all(np.all(np.isfinite(s)) for s in state)
+    # Detuned (natural frequency 1.7): not resonant.
+    _, _, resonant = _periodic_1dof(lambda t: 1.7**2, np.cos)
+    assert not resonant[0]

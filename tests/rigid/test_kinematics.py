@@ -1,0 +1,146 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ced.rigid import kinematics as kin
+from tests.conftest import drive_of, four_bars
+
+# 8th-order central difference weights for the first derivative (offsets −4..4).
+def _cross(u, v):
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+FD8 = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
+
+
+def _four_bar_at(times, g, a, b, c, branch, speed=7.0):
+    theta0, amp = drive_of(g, a, b, c)
+    motion = kin.input_motion(times, np.full(len(times), speed), np.full(len(times), theta0),
+                              np.full(len(times), amp))
+    n = len(times)
+    return kin.four_bar(np.full(n, g), np.full(n, a), np.full(n, b), np.full(n, c), motion,
+                        np.full(n, branch))
+
+
+@given(four_bars())
+@settings(max_examples=60, deadline=None)
+def test_four_bar_loop_closure_whole_cycle(linkage):
+    g, a, b, c, branch = linkage
+    speed = 7.0
+    t = np.linspace(0.0, 2 * np.pi / speed, 721)[None]
+    r = _four_bar_at(t, g, a, b, c, branch, speed)
+    A, B, C, D = (r.joint_position[0, :, k] for k in range(4))
+    scale = g + a + b + c
+    assert np.abs(np.linalg.norm(B - A, axis=-1) - a).max() < 1e-12 * scale
+    assert np.abs(np.linalg.norm(C - B, axis=-1) - b).max() < 1e-12 * scale
+    assert np.abs(np.linalg.norm(C - D, axis=-1) - c).max() < 1e-12 * scale
+    assert np.allclose(D, [g, 0.0], atol=0)
+    # The branch is kept: C stays on the chosen side of B→D over the whole cycle.
+    side = np.sign(_cross(D - B, C - B))
+    assert np.all(side == branch)
+
+
+@given(four_bars(), st.floats(0.0, 1.0))
+@settings(max_examples=60, deadline=None)
+def test_four_bar_derivatives_match_finite_differences(linkage, phase):
+    g, a, b, c, branch = linkage
+    speed = 7.0
+    t0 = phase * 2 * np.pi / speed
+    dt = 1e-4 / speed
+    times = (t0 + dt * np.arange(-4, 5))[None]
+    r = _four_bar_at(times, g, a, b, c, branch, speed)
+    for value, derivative in (
+        (np.unwrap(r.link_angle[0], axis=0), r.link_angular_velocity[0, 4]),
+        (r.link_angular_velocity[0], r.link_angular_acceleration[0, 4]),
+        (r.joint_position[0], r.joint_velocity[0, 4]),
+        (r.joint_velocity[0], r.joint_acceleration[0, 4]),
+    ):
+        fd = np.tensordot(FD8, value, axes=(0, 0)) / dt
+        scale = np.abs(derivative).max() + np.abs(fd).max() + 1e-12
+        assert np.abs(fd - derivative).max() < 1e-6 * scale
+
+
+@given(four_bars())
+@settings(max_examples=60, deadline=None)
+def test_freudenstein_equation(linkage):
+    g, a, b, c, branch = linkage
+    t = np.linspace(0.0, 1.0, 97)[None]
+    r = _four_bar_at(t, g, a, b, c, branch)
+    th2, th4 = r.link_angle[0, :, 0], r.link_angle[0, :, 2]
+    # Freudenstein: K1 cos θ4 − K2 cos θ2 + K3 = cos(θ2 − θ4), K1 = g/a, K2 = g/c,
+    # K3 = (a² − b² + c² + g²)/(2ac).
+    k1, k2, k3 = g / a, g / c, (a * a - b * b + c * c + g * g) / (2 * a * c)
+    residual = k1 * np.cos(th4) - k2 * np.cos(th2) + k3 - np.cos(th2 - th4)
+    assert np.abs(residual).max() < 1e-10 * (1 + k1 + k2 + abs(k3))
+
+
+def test_open_branch_puts_c_above_bd_for_crank_rocker():
+    t = np.zeros((1, 1))
+    r = _four_bar_at(t, 0.5, 0.1, 0.45, 0.35, 1.0)
+    B, C = r.joint_position[0, 0, 1], r.joint_position[0, 0, 2]
+    assert C[1] > 0 and _cross(np.array([0.5, 0]) - B, C - B) > 0
+    crossed = _four_bar_at(t, 0.5, 0.1, 0.45, 0.35, -1.0)
+    assert crossed.joint_position[0, 0, 2, 1] < 0
+
+
+def test_parallelogram_tracks_through_change_point():
+    # Parallelogram (g, a, b, c) = (1, 0.5, 1, 0.5): the smooth branch keeps the coupler
+    # parallel to the ground through θ = π and 2π where the two branches touch.
+    n = 1
+    t = np.linspace(0.0, 2 * 2 * np.pi, 801)[None]  # speed 1 rad/s, θ hits 0, π exactly
+    motion = kin.input_motion(t, np.ones(n), np.zeros(n))
+    r = kin.four_bar(np.ones(n), np.full(n, 0.5), np.ones(n), np.full(n, 0.5), motion,
+                     np.ones(n))
+    assert np.all(np.isfinite(r.link_angular_velocity))
+    assert np.all(np.isfinite(r.link_angular_acceleration))
+    coupler = np.angle(np.exp(1j * r.link_angle[0, :, 1]))
+    assert np.abs(coupler).max() < 1e-6
+    assert np.abs(r.link_angular_velocity[0, :, 2] - 1.0).max() < 1e-6
+    assert r.singular.any()
+
+
+@pytest.mark.parametrize("offset, branch", [(0.0, 1.0), (0.05, 1.0), (-0.04, -1.0)])
+def test_slider_crank_geometry_and_derivatives(offset, branch):
+    speed, a, b = 150.0, 0.15, 0.30
+    dt = 1e-4 / speed
+    for t0 in np.linspace(0, 2 * np.pi / speed, 7):
+        times = (t0 + dt * np.arange(-4, 5))[None]
+        motion = kin.input_motion(times, [speed], [0.0])
+        r = kin.slider_crank([a], [b], [offset], motion, [branch])
+        B, C = r.joint_position[0, :, 1], r.joint_position[0, :, 2]
+        assert np.allclose(C[:, 1], offset, atol=1e-15)
+        assert np.allclose(np.linalg.norm(C - B, axis=-1), b, rtol=1e-14)
+        assert np.all(np.sign(C[:, 0] - B[:, 0]) == branch)
+        for value, derivative in (
+            (r.link_angle[0], r.link_angular_velocity[0, 4]),
+            (r.link_angular_velocity[0], r.link_angular_acceleration[0, 4]),
+            (r.joint_velocity[0], r.joint_acceleration[0, 4]),
+        ):
+            fd = np.tensordot(FD8, value, axes=(0, 0)) / dt
+            assert np.abs(fd - derivative).max() < 1e-6 * (np.abs(derivative).max() + 1)
+
+
+def test_oscillating_input():
+    t = np.linspace(0, 1, 11)[None]
+    m = kin.input_motion(t, [3.0], [0.4], [0.2])
+    assert np.allclose(m.angle, 0.4 + 0.2 * np.sin(3 * t))
+    assert np.allclose(m.velocity, 0.6 * np.cos(3 * t))
+    assert np.allclose(m.acceleration, -1.8 * np.sin(3 * t))
+
+
+def test_single_link_tip_motion():
+    t = np.linspace(0, 1, 5)[None]
+    r = kin.single_link([0.5], kin.input_motion(t, [2.0], [0.0]))
+    tip = r.joint_position[0, :, 1]
+    assert np.allclose(tip, 0.5 * np.stack([np.cos(2 * t[0]), np.sin(2 * t[0])], -1))
+    # Centripetal acceleration of a uniformly turning tip: L Ω² towards the pivot.
+    assert np.allclose(r.joint_acceleration[0, :, 1], -4.0 * tip)
+
+
+def test_link_point_matches_joints():
+    t = np.linspace(0, 0.3, 7)[None]
+    r = _four_bar_at(t, 0.5, 0.1, 0.45, 0.35, 1.0)
+    for order, arr in enumerate((r.joint_position, r.joint_velocity, r.joint_acceleration)):
+        assert np.allclose(r.link_point("coupler", 0.45, order), arr[:, :, 2])
+        assert np.allclose(r.link_point("rocker", 0.35, order), arr[:, :, 2])
