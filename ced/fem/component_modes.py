@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .effect_terms import LinkData
-from .modal import natural_frequencies
+from .eigenproblem import natural_frequencies
 
 __all__ = ["craig_bampton"]
 

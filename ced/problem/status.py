@@ -28,7 +28,7 @@ STATUS_FLAGS = {
     "not_assemblable": 32,
     # The frozen structure K_eff has a negative eigenvalue at some phase (a link compressed
     # beyond its Euler load, or centrifugal softening of a near-mechanism mode): reported as
-    # a negative natural_frequency, −√|λ|/2π (ced.fem.modal, ced.response.frequencies).
+    # a negative natural_frequency, −√|λ|/2π (ced.fem.eigenproblem, ced.response.frequencies).
     "buckled": 64,
     # discretization: auto could not reach the scene's tolerance within its ladders' limits
     # (ced.auto.discretization): the error estimate says by how much.

@@ -1,7 +1,7 @@
 """Natural frequencies of a batch over the input cycle (thesis III.3.1.b).
 
-The frozen eigenproblem (:func:`ced.fem.modal.natural_frequencies`) of the KED model at
-phases of the input cycle, with the stiffness-type effects of the scene; the one way ced gets
+The frozen eigenproblem (:func:`ced.fem.eigenproblem.natural_frequencies`) of the KED model
+at phases of the input cycle, with the stiffness-type effects of the scene; the one way ced gets
 a case's first natural frequency (:func:`first_natural_frequency`), whether from a modal
 analysis the scene asked for, for the error estimate, the ``discretization: auto`` pilots or
 the ``effects: auto`` probe.
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..fem.modal import natural_frequencies
+from ..fem.eigenproblem import natural_frequencies
 from ..problem.errors import SceneError
 from .model import Model, terms_at
 
@@ -46,7 +46,7 @@ def cycle_frequencies(model: Model, phases: np.ndarray, modes: int,
     Returns
     -------
     ndarray, (case, phase, mode), Hz; negative for a negative eigenvalue (see
-    :func:`ced.fem.modal.natural_frequencies`)
+    :func:`ced.fem.eigenproblem.natural_frequencies`)
     """
     effects = (model.effects if effects is None else set(effects)) - {"damping"}
     times = np.asarray(phases, float)[None, :] / model.batch.speed[:, None]
@@ -84,8 +84,8 @@ def first_natural_frequency(frequency: np.ndarray, over: str = "max") -> np.ndar
 def buckled(frequency: np.ndarray) -> np.ndarray:
     """(case,) bool: the frozen K_eff has a negative eigenvalue at some modal angle.
 
-    :func:`ced.fem.modal.natural_frequencies` reports a negative eigenvalue λ as the frequency
-    −√|λ|/2π. With axial stiffening, a link compressed beyond its Euler load has one (the
+    :func:`ced.fem.eigenproblem.natural_frequencies` reports a negative eigenvalue λ as the
+    frequency −√|λ|/2π. With axial stiffening, a link compressed beyond its Euler load has one (the
     linear model then describes a link that would buckle); centrifugal softening of a
     near-mechanism mode (change points) gives one too.
     """

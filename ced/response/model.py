@@ -22,7 +22,7 @@ from ..fem.component_modes import craig_bampton
 from ..fem.coupling import Layout, build_layout, projection
 from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients, permute,
                                 split_order, system_terms)
-from ..fem.modal import natural_frequencies
+from ..fem.eigenproblem import natural_frequencies
 from ..rigid.inverse_dynamics import inverse_dynamics
 from .batch import Batch
 

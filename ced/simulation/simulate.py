@@ -41,8 +41,7 @@ def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
     """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
-    ``case`` axis,
-    sampled every ``outputs.every`` steps.
+    ``case`` axis, sampled every ``outputs.every`` steps.
     """
     scene = batch.scenes[0]
     effects = scene["effects"]
@@ -158,8 +157,8 @@ def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray
     for key, indices in groups.items():
         try:
             ((batch, _, result, _),) = _solve_groups(scenes, {key: indices})
-        except Exception:  # noqa: BLE001 — each failure is in the case's own run; no estimate
-            if keep_going:
+        except Exception:  # noqa: BLE001 — with keep_going: every companion of the group
+            if keep_going:  # failed, so these cases get no estimate; their own results stand
                 continue
             raise
         failed = (result["status"] & STATUS_FLAGS["failed"]) > 0

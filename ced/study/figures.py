@@ -125,8 +125,8 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     family's representative geometry (:func:`representative_geometry`), with markers on the
     cases flagged resonant or parametrically unstable, and triangles on the bottom edge where
     its lowest frequency is ≤ 0 somewhere in the cycle (a negative eigenvalue of the frozen
-    effective stiffness, stored as −√|λ|/2π by :func:`ced.fem.modal.natural_frequencies`; bands
-    are clipped at the bottom edge). Dashed lines: crank harmonics k·Ω/2π, k = 1…10 — a mode
+    effective stiffness, stored as −√|λ|/2π by
+    :func:`ced.fem.eigenproblem.natural_frequencies`; bands are clipped at the bottom edge). Dashed lines: crank harmonics k·Ω/2π, k = 1…10 — a mode
     band crossing a harmonic line is a candidate resonance.
     """
     with xr.open_dataset(path, engine="netcdf4") as ds:

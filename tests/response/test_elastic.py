@@ -1,6 +1,5 @@
 """Verification of the elastic response (ced.response.elastic) against exact results and a
 published benchmark."""
-import copy
 import math
 
 import numpy as np

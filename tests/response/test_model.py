@@ -1,7 +1,7 @@
 """The KED model of a batch (ced.response.model): conservation, damping, effects built."""
 import numpy as np
 
-from ced.fem.modal import natural_frequencies
+from ced.fem.eigenproblem import natural_frequencies
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
 from ced.response.integrators import march, newmark, start

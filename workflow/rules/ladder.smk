@@ -1,5 +1,5 @@
 rule fidelity_ladder:
-    """The reference scene through every model, each refined until converged (ced.study.fidelity_ladder)."""
+    """Every model on the reference scene, refined until converged (ced.study.fidelity_ladder)."""
     input:
         scene=f"{workflow.basedir}/config/scenes/reference_four_bar.yaml",
     output:
