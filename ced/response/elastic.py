@@ -9,14 +9,18 @@ status flags. Everything is vectorized across the cases of the batch.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..fem.recovery import link_fields, peaks
+from ..problem.errors import SceneError
 from ..problem.mechanism import near_singular
 from ..problem.status import STATUS_FLAGS
 from .batch import Batch
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
-from .integrators import forced_columns, from_independent, integrator_for, march, start
+from .integrators import (forced_columns, from_independent, integrator_for, march, stability_limit,
+                          start)
 from .model import Model, StepTerms, build_model, terms_at
 from .periodic import INSTABILITY_MARGIN, shoot
 
@@ -91,6 +95,7 @@ def _response(model: Model, status: np.ndarray, result: dict):
 
     time_cfg = scene["time"]
     scheme = integrator_for(time_cfg)
+    _check_stable_step(model, stability_limit(scheme))
     if time_cfg["start"] == "periodic":
         periodic, mu, resonant = shoot(scheme, cache, h, time_cfg["steps_per_revolution"],
                                        ny, ncase)
@@ -120,6 +125,31 @@ def _response(model: Model, status: np.ndarray, result: dict):
 
     march(scheme, terms, h, n_steps, state, record)
     return qz, qz_static
+
+
+def _check_stable_step(model: Model, limit: float) -> None:
+    """Refuse a conditionally stable scheme whose step exceeds its stability limit: the highest
+    natural frequency of the frozen system (at four phases of the cycle) times the step must
+    stay within ``limit`` (:func:`ced.response.integrators.stability_limit`); beyond it the
+    response grows without bound. Raised for the batch; the cases are then solved one by one
+    and the offending ones recorded as failed with this message."""
+    if not math.isfinite(limit):
+        return
+    frequency = cycle_frequencies(model, modal_phases(4), model.layout.ny)
+    omega_max = 2.0 * math.pi * np.abs(frequency).max(axis=(1, 2))
+    batch = model.batch
+    worst = int(np.argmax(omega_max * batch.step_size))
+    omega_h = float(omega_max[worst] * batch.step_size[worst])
+    if omega_h > limit:
+        spr = batch.scenes[worst]["time"]["steps_per_revolution"]
+        needed = math.ceil(spr * omega_h / limit)
+        raise SceneError(
+            "time.steps_per_revolution",
+            f"{spr} steps per revolution make the scheme unstable: its stability limit is "
+            f"ω h ≤ {limit:.4g}, and the highest natural frequency "
+            f"{omega_max[worst] / (2 * math.pi):.4g} Hz gives ω h = {omega_h:.4g}; use at "
+            f"least {needed} steps per revolution or an unconditionally stable integrator "
+            f"(newmark with 2β ≥ γ, hht, generalized_alpha, houbolt)")
 
 
 def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray) -> dict[str, np.ndarray]:

@@ -97,6 +97,7 @@ __all__ = [
     "integrate",
     "amplification_matrix",
     "spectral_radius",
+    "stability_limit",
 ]
 
 Solve = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -664,4 +665,23 @@ def spectral_radius(integrator: Integrator, omega_h: float | np.ndarray,
     """Largest eigenvalue modulus of :func:`amplification_matrix` (dimensionless)."""
     # Accurate up to ωh ~ 1e6 without balancing: the entries stay O(1) there.
     return np.abs(np.linalg.eigvals(amplification_matrix(integrator, omega_h, xi))).max(axis=-1)
+
+
+def stability_limit(integrator: Integrator) -> float:
+    """Largest ω h (rad per step) for which the scheme is stable on an undamped mode.
+
+    Newmark with 2β ≥ γ ≥ ½, HHT-α, generalized-α and Houbolt are unconditionally stable
+    (``inf``). Newmark with 2β < γ is stable for ω h ≤ 1/√(γ/2 − β) (Hughes, *The Finite
+    Element Method*, 2000, §9.1.2): 2 for the central-difference member β = 0, γ = ½.
+
+    Examples
+    --------
+    >>> stability_limit(newmark(0.0, 0.5)), stability_limit(newmark())
+    (2.0, inf)
+    """
+    if isinstance(integrator, NewmarkFamily) and integrator.alpha_m == integrator.alpha_f == 0.0:
+        margin = 0.5 * integrator.gamma - integrator.beta
+        if margin > 0.0:
+            return 1.0 / math.sqrt(margin)
+    return math.inf
 

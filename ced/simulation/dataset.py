@@ -126,7 +126,8 @@ def make_dataset(
         if dtype == "str":
             values = values.astype(object)
         else:
-            values = values.astype(dtype)
+            with np.errstate(over="ignore"):  # a failed case may overflow float32: inf
+                values = values.astype(dtype)
         attrs = {"long_name": long_name}
         if dtype != "str":
             attrs["units"] = units

@@ -76,10 +76,53 @@ def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
     return out
 
 
+def _nonfinite(result: dict[str, np.ndarray]) -> dict[int, list[str]]:
+    """Cases with a value that is not finite as stored (float32 fields overflow above 3.4e38),
+    and the variables that have one."""
+    bad: dict[int, list[str]] = {}
+    for name, values in result.items():
+        dtype = VARIABLES[name][3]
+        if dtype not in ("float32", "float64"):
+            continue
+        with np.errstate(over="ignore", invalid="ignore"):
+            stored = np.asarray(values).astype(dtype)
+        finite = np.isfinite(stored).reshape(len(stored), -1).all(axis=1)
+        for case in np.flatnonzero(~finite):
+            bad.setdefault(int(case), []).append(name)
+    return bad
+
+
+#: Rigid joint forces (N) or drive torque (N m) beyond which a non-finite elastic result is
+#: blamed on the input rather than on the solver: no machine sees 1e30 N, and the stresses of
+#: such loads overflow float32 (3.4e38).
+OVERFLOW_LOAD = 1e30
+#: Results of the rigid analysis: non-finite there means an input overflowed.
+_RIGID = {"time", "crank_angle", "joint_position", "link_angle", "link_angular_velocity",
+          "link_angular_acceleration", "joint_force", "input_torque", "guide_force"}
+
+
+def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
+    """Flag ``failed`` every case whose result is not finite, naming why (in place): no case
+    carries a non-finite value unless it is failed."""
+    for case, names in _nonfinite(result).items():
+        if result["status"][case] & STATUS_FLAGS["failed"]:
+            continue  # already failed, with its own message
+        result["status"][case] |= STATUS_FLAGS["failed"]
+        loads = max(float(np.max(np.abs(result[k][case])))
+                    for k in ("joint_force", "input_torque"))
+        if _RIGID & set(names) or loads > OVERFLOW_LOAD:
+            cause = f"an input overflows: loads of {loads:.3g} N (N m) in the rigid analysis"
+        else:
+            cause = "the elastic response diverges (an unstable or ill-conditioned system)"
+        messages[case] = f"failed: non-finite {', '.join(names)}: {cause}"
+
+
 def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
     """Solve a batch; if it fails, solve its cases one by one and record the failures."""
     try:
-        return solve_batch(batch), [""] * batch.size
+        result, messages = solve_batch(batch), [""] * batch.size
+        _fail_nonfinite(result, messages)
+        return result, messages
     except Exception:  # noqa: BLE001 — isolate the failing case(s) below
         if batch.size == 1:
             raise
@@ -106,6 +149,7 @@ def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
             else:
                 parts.append(r[name])
         merged[name] = np.concatenate(parts)
+    _fail_nonfinite(merged, messages)
     return merged, messages
 
 

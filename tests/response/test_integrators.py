@@ -11,7 +11,7 @@ from scipy.integrate import solve_ivp
 from ced.response.integrators import (Houbolt, NewmarkFamily, alpha_step, amplification_matrix,
                                       effective_coefficients, generalized_alpha, hht, houbolt,
                                       houbolt_step, integrate, make_integrator, newmark,
-                                      spectral_radius)
+                                      spectral_radius, stability_limit)
 
 ALL = [newmark(), hht(-0.05), hht(-1 / 3), generalized_alpha(0.9), generalized_alpha(0.0),
        houbolt()]
@@ -389,3 +389,16 @@ def test_superposition(data, integrator):
     for x, x1, x2 in zip(r, r1, r2):
         scale = np.abs(x1).max() + abs(c) * np.abs(x2).max()
         np.testing.assert_allclose(x, x1 + c * x2, rtol=0, atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize("beta, gamma", [(0.0, 0.5), (0.1, 0.6), (0.2, 0.5), (0.0, 0.8)])
+def test_stability_limit_is_where_the_spectral_radius_crosses_one(beta, gamma):
+    # Newmark with 2β < γ: the amplification matrix's spectral radius stays ≤ 1 up to the
+    # limit 1/√(γ/2 − β) and exceeds 1 beyond it (Hughes 2000, §9.1.2).
+    scheme = newmark(beta, gamma)
+    limit = stability_limit(scheme)
+    assert limit == pytest.approx(1.0 / np.sqrt(gamma / 2 - beta))
+    assert spectral_radius(scheme, 0.999 * limit) <= 1.0 + 1e-12
+    assert spectral_radius(scheme, 1.001 * limit) > 1.0 + 1e-6
+    assert stability_limit(newmark(gamma / 2, gamma)) == np.inf
+    assert stability_limit(generalized_alpha(0.0)) == stability_limit(houbolt()) == np.inf

@@ -1,0 +1,62 @@
+"""``ced.simulate`` (ced.simulation.simulate): failing cases are isolated and recorded, and no
+case carries a non-finite value unless it is failed, with the cause in its message."""
+import numpy as np
+import pytest
+
+from ced.problem.errors import SceneError
+from ced.problem.status import STATUS_FLAGS
+from ced.simulation.simulate import simulate
+
+BASE = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                      "rocker": 0.35},
+        "links": {"crank": {"flexible": False}, "rocker": {"flexible": False}},
+        "discretization": {"elements_per_link": 4},
+        "outputs": {"error_estimate": False}}
+#: Central differences (Newmark β = 0, γ = ½): stable for ω h ≤ 2. The highest frequency of
+#: this 4-element coupler is 21.04 kHz (ω = 1.322e5 rad/s), so at Ω = 100 rad/s a revolution
+#: needs 2π/(Ω h) ≥ π ω/Ω = 4153.7, i.e. 4154 steps.
+EXPLICIT = {**BASE, "time": {"revolutions": 1, "steps_per_revolution": 4200,
+                             "integrator": "newmark", "beta": 0.0, "gamma": 0.5}}
+
+
+def failed(ds) -> np.ndarray:
+    return (ds.status.values & STATUS_FLAGS["failed"]) > 0
+
+
+def finite_unless_failed(ds) -> None:
+    for name, var in ds.data_vars.items():
+        if var.dtype.kind == "f" and "case" in var.dims:
+            values = var.transpose("case", ...).values.reshape(ds.sizes["case"], -1)
+            assert np.isfinite(values[~failed(ds)]).all(), name
+
+
+def test_explicit_scheme_beyond_its_stability_limit_is_refused():
+    with pytest.raises(SceneError) as err:
+        simulate({**EXPLICIT, "time": {**EXPLICIT["time"], "steps_per_revolution": 256}})
+    assert err.value.path == "time.steps_per_revolution"
+    assert "stability limit is ω h ≤ 2" in err.value.message
+    assert "use at least 4154 steps per revolution" in err.value.message
+
+
+def test_explicit_scheme_fails_only_the_cases_beyond_the_limit():
+    # At 40 rad/s the same 4200 steps per revolution are 2.5 times longer: ω h = 4.9 > 2.
+    ds = simulate([EXPLICIT, {**EXPLICIT, "drive": {"speed": 40.0}}])
+    assert failed(ds).tolist() == [False, True]
+    assert "ω h = 4.945" in str(ds.message.values[1])
+    finite_unless_failed(ds)
+    # Within the limit, central differences agree with the default scheme to the step's order.
+    reference = simulate({**BASE, "time": {"revolutions": 1, "steps_per_revolution": 4200}})
+    np.testing.assert_allclose(ds.peak_stress.values[0, 1],
+                               reference.peak_stress.values[0, 1], rtol=2e-2)
+
+
+def test_overflowing_input_fails_the_case_and_says_so():
+    heavy = {**BASE, "effects": ["inertia", "elastic_inertia", "gravity"],
+             "gravity": [0.0, -1e300], "time": {"revolutions": 1, "steps_per_revolution": 64}}
+    light = {**heavy, "gravity": [0.0, -9.81]}
+    with np.errstate(over="ignore", invalid="ignore"):
+        ds = simulate([light, heavy])
+    assert failed(ds).tolist() == [False, True]
+    assert "an input overflows" in str(ds.message.values[1])
+    assert "stress" in str(ds.message.values[1])
+    finite_unless_failed(ds)
