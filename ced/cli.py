@@ -15,14 +15,19 @@ __all__ = ["main"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .io import write_dataset
+    from .io import check_output, write_dataset
+    from .problem.errors import SceneError
     from .problem.scene import load_scene
     from .problem.status import status_names
     from .simulation.simulate import simulate
 
+    check_output(args.output, inputs=args.scenes)  # before any work
     scenes = [load_scene(path) for path in args.scenes]  # validate everything before solving
     ds = simulate(scenes)
-    write_dataset(ds, args.output)
+    try:
+        write_dataset(ds, args.output)
+    except (OSError, RuntimeError) as err:  # disk full, permissions, HDF5 errors
+        raise SceneError("output", f"cannot write {args.output!r}: {err}") from None
     for case in range(ds.sizes["case"]):
         flags = ",".join(status_names(int(ds.status.values[case])))
         print(f"case {case}: {ds.family.values[case]} status={flags} "

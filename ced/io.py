@@ -1,18 +1,57 @@
-"""netCDF files: atomic writes of ced's datasets.
+"""netCDF files: atomic writes of ced's datasets, and output paths checked before any work.
 
 Write with ``engine="netcdf4"``, zlib level 4 with shuffle, chunks along ``case``; a temporary
 file in the same directory is renamed over the target, so a reader sees either the old file
-or the complete new one.
+or the complete new one. A temporary file is named after its writer (host and process id),
+so that the sweep of temporary files left by killed writes never removes the live one of a
+concurrent writer of the same path.
 """
 from __future__ import annotations
 
 import os
+import socket
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
 import xarray as xr
 
-__all__ = ["write_dataset"]
+from .problem.errors import SceneError
+
+__all__ = ["write_dataset", "check_output"]
+
+
+def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
+    """Refuse an output path that cannot take a dataset, before any work is done.
+
+    The path must be a file path (not empty, not a directory) in an existing, writable
+    directory, and not one of the ``inputs`` (the run would replace its own scene). A missing
+    directory is not created: a typo must not make a tree.
+
+    Raises
+    ------
+    SceneError
+        At ``output``, saying what is wrong.
+    """
+    if not str(path):
+        raise SceneError("output", "must be the path of a netCDF file, got ''")
+    out = Path(path)
+    if out.is_dir():
+        raise SceneError("output", f"{str(out)!r} is a directory; give a file path such as "
+                                   f"{str(out / 'result.nc')!r}")
+    parent = out.resolve().parent
+    if not parent.exists():
+        raise SceneError("output", f"the directory {str(parent)!r} does not exist (it is not "
+                                   "created for you: create it, or correct the path)")
+    if not parent.is_dir():
+        raise SceneError("output", f"{str(parent)!r} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise SceneError("output", f"cannot write in {str(parent)!r}: permission denied")
+    for source in inputs:
+        if out.exists() and Path(source).exists() and os.path.samefile(out, source):
+            raise SceneError("output", f"{str(out)!r} is the input {str(source)!r}; it would be "
+                                       "replaced by the dataset")
+    return out
 
 
 def _encoding(ds: xr.Dataset) -> dict:
@@ -40,7 +79,8 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}~{_HOST}~{os.getpid()}~", suffix=".tmp",
+                               dir=path.parent)
     os.close(fd)
     try:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=_encoding(ds))
@@ -53,8 +93,26 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
-    # A write killed earlier (SIGKILL, node failure) left its temp file; the complete file now
-    # exists, so those leftovers are garbage. One job writes a given output, so none is live.
-    for stale in path.parent.glob(f".{path.name}.*.tmp"):
-        stale.unlink(missing_ok=True)
+    # A write killed earlier (SIGKILL) left its temp file; the complete file now exists, so it
+    # is garbage. Only temp files of dead writers on this host are removed: a live one belongs
+    # to a concurrent writer of the same path, and another host's process cannot be checked.
+    for stale in path.parent.glob(f".{path.name}~{_HOST}~*~*.tmp"):
+        pid = stale.name[len(f".{path.name}~{_HOST}~"):].split("~")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            stale.unlink(missing_ok=True)
     return path
+
+
+#: This machine's name in temporary file names ("~" separates the fields).
+_HOST = socket.gethostname().replace("~", "-") or "localhost"
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this host."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # exists, owned by someone else
+    return True

@@ -3,6 +3,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
 from ced.cli import main
@@ -46,3 +47,71 @@ def test_check_prints_the_study_size(capsys):
     assert "chunk jobs: 27 (" in out
     assert "estimated output: 0.661 GB uncompressed" in out
     assert "estimated peak memory per chunk job: " in out
+
+
+SCENE = ROOT / "config/scenes/sung_thompson_rigid.yaml"
+
+
+def refused(args, capsys, monkeypatch) -> str:
+    """``ced run`` exits 2 before any work: simulate is never called."""
+    import ced.simulation.simulate
+
+    def forbidden(*a, **k):
+        raise AssertionError("simulate ran")
+    monkeypatch.setattr(ced.simulation.simulate, "simulate", forbidden)
+    assert main(["run", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ced: error: output: "), err
+    return err
+
+
+def test_output_directory_empty_or_missing_parent_is_refused(tmp_path, capsys, monkeypatch):
+    assert "is a directory" in refused([str(SCENE), "-o", str(tmp_path)], capsys, monkeypatch)
+    assert "got ''" in refused([str(SCENE), "-o", ""], capsys, monkeypatch)
+    typo = tmp_path / "resluts" / "out.nc"
+    assert "does not exist" in refused([str(SCENE), "-o", str(typo)], capsys, monkeypatch)
+    assert not typo.parent.exists()  # no tree made from a typo
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert "not a directory" in refused([str(SCENE), "-o", str(blocker / "out.nc")], capsys,
+                                        monkeypatch)
+
+
+def test_output_equal_to_the_input_scene_is_refused(tmp_path, capsys, monkeypatch):
+    scene = tmp_path / "scene.yaml"
+    scene.write_bytes(SCENE.read_bytes())
+    assert "is the input" in refused([str(scene), "-o", str(scene)], capsys, monkeypatch)
+    assert scene.read_bytes() == SCENE.read_bytes()
+
+
+def test_write_failure_exits_2_naming_output_and_keeps_the_old_file(tmp_path, capsys,
+                                                                     monkeypatch):
+    out = tmp_path / "out.nc"
+    out.write_bytes(b"earlier result")
+
+    def disk_full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", disk_full)
+    assert main(["run", str(SCENE), "-o", str(out)]) == 2
+    assert "ced: error: output: cannot write" in capsys.readouterr().err
+    assert out.read_bytes() == b"earlier result"
+    assert sorted(tmp_path.iterdir()) == [out]
+
+
+def test_concurrent_writers_of_one_path_never_crash_each_other(tmp_path):
+    """Two processes write the same file 20 times each: neither fails (a writer's live
+    temporary file is not swept by the other), and the file left is one complete dataset."""
+    out = tmp_path / "shared.nc"
+    writer = ("import sys, numpy as np, xarray as xr; from ced.io import write_dataset\n"
+              "ds = xr.Dataset({'x': (('case', 'step'), np.full((64, 4096), float(sys.argv[2])),"
+              " {'units': '1', 'long_name': 'x'})})\n"
+              "for _ in range(20): write_dataset(ds, sys.argv[1])\n")
+    procs = [subprocess.Popen([sys.executable, "-c", writer, str(out), str(v)],
+                              stderr=subprocess.PIPE, text=True) for v in (1.0, 2.0)]
+    for proc in procs:
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err
+    with xr.open_dataset(out, engine="netcdf4") as ds:
+        values = np.unique(ds.x.values)
+    assert values.tolist() in ([1.0], [2.0])
+    assert sorted(tmp_path.iterdir()) == [out]

@@ -109,7 +109,7 @@ def small_dataset(value: float) -> xr.Dataset:
 
 
 def temp_files(directory: Path, name: str) -> list[Path]:
-    return [p for p in directory.iterdir() if p.name.startswith(f".{name}.")
+    return [p for p in directory.iterdir() if p.name.startswith(f".{name}~")
             and p.name.endswith(".tmp")]
 
 
