@@ -22,7 +22,14 @@ def _run(args: argparse.Namespace) -> int:
     from .simulation.simulate import simulate
 
     check_output(args.output, inputs=args.scenes)  # before any work
-    scenes = [load_scene(path) for path in args.scenes]  # validate everything before solving
+    scenes = []
+    for path in args.scenes:  # validate everything before solving
+        try:
+            scenes.append(load_scene(path))
+        except SceneError as err:
+            if len(args.scenes) == 1:
+                raise
+            raise SceneError(err.path, f"{err.message} (in {path})") from None
     ds = simulate(scenes)
     try:
         write_dataset(ds, args.output)

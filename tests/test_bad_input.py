@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -123,7 +124,7 @@ def test_ced_run_bad_scene_exits_2_and_writes_nothing(path, tmp_path, monkeypatc
     monkeypatch.chdir(tmp_path)
     good = ROOT / "config" / "scenes" / "slider_crank.yaml"
     # The bad scene second: every scene is validated before anything is solved or written.
-    assert main(["run", str(good), str(path), "-o", str(tmp_path / "out" / "run.nc")]) == 2
+    assert main(["run", str(good), str(path), "-o", str(tmp_path / "run.nc")]) == 2
     out, err = capsys.readouterr()
     assert out == ""
     assert err.startswith(f"ced: error: {corpus_header(path, 'expect')}: "), err
@@ -236,3 +237,39 @@ def test_yaml_tags_are_not_executed(tmp_path):
         load_config(path)
     assert err.value.path == "<config>" and "invalid YAML" in err.value.message
     assert not (tmp_path / "hacked").exists() and not Path("hacked").exists()
+
+
+# ------------------------------------------------------------------ bounded time and memory
+def _limited():
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (2**30, 2**30))  # 1 GiB of address space
+
+
+@pytest.mark.parametrize("args, key", [
+    (["run", str(HERE / "bad_scenes" / "alias_bomb.yaml")], "<scene>"),
+    (["run", "/dev/zero"], "<scene>"),
+    (["check", str(HERE / "bad_configs" / "alias_bomb.yaml")], "<config>"),
+    (["check", str(HERE / "bad_configs" / "deeply_nested.yaml")], "<config>"),
+], ids=["scene_alias_bomb", "dev_zero", "config_alias_bomb", "config_nesting"])
+def test_hostile_input_is_refused_in_bounded_memory(args, key, tmp_path):
+    """Alias bombs, endless files and deep nesting exit 2 naming the document, in a process
+    limited to 1 GiB of address space (the timeout only guards against a hang)."""
+    exe = Path(sys.executable).with_name("ced")
+    if args[0] == "run":
+        args = [*args, "-o", str(tmp_path / "out.nc")]
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    result = subprocess.run([str(exe), *args], capture_output=True, text=True, cwd=tmp_path,
+                            preexec_fn=_limited, env=env, timeout=300)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith(f"ced: error: {key}: "), result.stderr
+    assert "Traceback" not in result.stderr and list(tmp_path.iterdir()) == []
+
+
+def test_two_scenes_name_the_file_of_the_error(tmp_path, capsys):
+    good = ROOT / "config" / "scenes" / "slider_crank.yaml"
+    bad = HERE / "bad_scenes" / "zero_height.yaml"
+    assert main(["run", str(good), str(bad), "-o", str(tmp_path / "run.nc")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"ced: error: {corpus_header(bad, 'expect')}: ")
+    assert f"(in {bad})" in err

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import numbers
 import re
+import reprlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -52,14 +53,21 @@ class SceneError(ValueError):
 
 def join(items) -> str:
     """``a, b, c`` for a message; non-strings are shown with ``repr``."""
-    return ", ".join(item if isinstance(item, str) else repr(item) for item in items)
+    return ", ".join(item if isinstance(item, str) else shown(item) for item in items)
+
+
+#: Bounded repr: a value that YAML aliases expand to 10⁹ items is shown by its first few,
+#: never built in full.
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple, _REPR.maxset = 3, 4, 6, 6, 6
+_REPR.maxstring, _REPR.maxother, _REPR.maxlong = 60, 60, 40
 
 
 def shown(value: Any) -> str:
-    """A short rendering of a user value for messages."""
+    """A short rendering of a user value for messages (at most 60 characters)."""
     if value is None or isinstance(value, bool):
         return {None: "null", True: "true", False: "false"}[value]
-    text = repr(value)
+    text = _REPR.repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 

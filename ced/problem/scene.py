@@ -15,7 +15,8 @@ Choices the design leaves open
 - **YAML dialect.** Scalars are resolved as in YAML 1.2: ``2.1e11`` and ``1e-3`` are floats
   (PyYAML's YAML 1.1 rules would read them as strings), only ``true``/``false`` are booleans
   (``yes``/``no``/``on``/``off`` stay strings), no sexagesimal or octal integers. Duplicate
-  keys in a mapping are an error.
+  keys in a mapping are an error; so are files, nesting and alias expansions beyond the limits
+  of :mod:`ced.problem.yaml_files`, the reader shared with study configs.
 - **Numbers.** ``bool`` is never a number; an ``int`` is accepted for a float; a float with an
   integral value (``512.0``) is accepted for an integer; NaN/inf are rejected (see
   :mod:`ced.problem.errors`).
@@ -38,19 +39,16 @@ Choices the design leaves open
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import math
 import os
-import re
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
-import yaml
 
-from .errors import Bool, Choice, Int, Real, SceneError, Text, check_keys, join
+from .errors import Bool, Choice, Int, Real, SceneError, Text, check_keys, join, shown
 from .materials import resolve_material, section_properties
+from .yaml_files import check_structure, load_yaml
 
 __all__ = [
     "SceneError",
@@ -178,56 +176,6 @@ _GRAVITY = Real(unit="m/s^2")
 _TOLERANCE = Real(low=0.0, high=1.0, low_open=True, high_open=True, unit="relative error")
 
 
-# ---------------------------------------------------------------------------------- YAML
-class _Loader(yaml.SafeLoader):
-    """SafeLoader with YAML 1.2 core-schema numbers/booleans and duplicate-key detection."""
-
-    def construct_mapping(self, node, deep=False):
-        if isinstance(node, yaml.MappingNode):
-            seen = set()
-            for key_node, _ in node.value:
-                if isinstance(key_node, yaml.ScalarNode) and key_node.tag != "tag:yaml.org,2002:merge":
-                    key = (key_node.tag, key_node.value)
-                    if key in seen:
-                        raise yaml.constructor.ConstructorError(
-                            "while constructing a mapping", node.start_mark,
-                            f"found duplicate key {key_node.value!r}", key_node.start_mark)
-                    seen.add(key)
-        return super().construct_mapping(node, deep=deep)
-
-
-_BOOL_TAG, _INT_TAG, _FLOAT_TAG = (f"tag:yaml.org,2002:{t}" for t in ("bool", "int", "float"))
-_Loader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag not in (_BOOL_TAG, _INT_TAG, _FLOAT_TAG)]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-_Loader.add_implicit_resolver(
-    _BOOL_TAG, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
-_Loader.add_implicit_resolver(
-    _INT_TAG, re.compile(r"^[-+]?(?:0|[1-9][0-9]*)$"), list("-+0123456789"))
-_Loader.add_implicit_resolver(
-    _FLOAT_TAG,
-    re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
-               r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
-    list("-+0123456789."))
-
-
-def _read_yaml(path: Path) -> Any:
-    hint = "pass the path of a YAML scene file or a mapping (YAML text is not accepted)"
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, ValueError) as exc:  # ValueError: embedded NUL, undecodable bytes
-        raise SceneError("<scene>", f"cannot read {str(path)[:200]!r}: {exc}; {hint}") from None
-    stream = io.StringIO(text)
-    stream.name = str(path)  # PyYAML puts the stream's name into its error marks
-    try:
-        return yaml.load(stream, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as exc:
-        raise SceneError("<scene>", f"invalid YAML: {exc}") from None
-    except RecursionError:
-        raise SceneError("<scene>", f"invalid YAML: {path} is nested too deeply") from None
-
-
 # ------------------------------------------------------------------------------- checks
 def _block(value: Any, path: str, fields: Mapping[str, tuple[Any, Any]]) -> dict:
     """Validate a mapping against a block spec and fill its defaults."""
@@ -262,7 +210,7 @@ def _unused_parameters(block: dict, name: str) -> None:
 def _mechanism(value: Any) -> dict:
     if not isinstance(value, Mapping):
         raise SceneError("mechanism", f"must be a mapping with type ({join(MECHANISM_TYPES)}) "
-                                      f"and its lengths; got {value!r:.60}")
+                                      f"and its lengths; got {shown(value)}")
     if value.get("type") is None:
         raise SceneError("mechanism.type", f"missing; allowed: {join(MECHANISM_TYPES)}")
     kind = Choice(MECHANISM_TYPES)(value["type"], "mechanism.type")
@@ -323,11 +271,11 @@ def _effects(value: Any) -> list[str] | str:
         return AUTO
     allowed = f"a list of distinct names from {join(EFFECTS)}, or {AUTO!r}"
     if not isinstance(value, (list, tuple)):
-        raise SceneError("effects", f"must be {allowed}; got {value!r:.60}")
+        raise SceneError("effects", f"must be {allowed}; got {shown(value)}")
     seen: set[str] = set()
     for i, item in enumerate(value):
         if not isinstance(item, str) or item not in EFFECTS:
-            raise SceneError(f"effects[{i}]", f"unknown effect {item!r:.60}; allowed: "
+            raise SceneError(f"effects[{i}]", f"unknown effect {shown(item)}; allowed: "
                                               f"{join(EFFECTS)} (or effects: {AUTO})")
         if item in seen:
             raise SceneError(f"effects[{i}]", f"duplicate effect {item!r}; each effect may be "
@@ -339,7 +287,7 @@ def _effects(value: Any) -> list[str] | str:
 def _gravity(value: Any) -> list[float]:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
         raise SceneError("gravity", f"must be a list [gx, gy] of two finite numbers (m/s^2); "
-                                    f"got {value!r:.60}")
+                                    f"got {shown(value)}")
     return [_GRAVITY(g, f"gravity[{i}]") for i, g in enumerate(value)]
 
 
@@ -426,9 +374,11 @@ def load_scene(source: str | os.PathLike | Mapping) -> dict:
     True
     """
     if isinstance(source, Mapping):
+        check_structure(source, "<scene>")
         raw = source
     elif isinstance(source, (str, os.PathLike)):
-        raw = _read_yaml(Path(source))
+        raw = load_yaml(source, "<scene>", "1.2", hint="; pass the path of a YAML scene file "
+                        "or a mapping (YAML text is not accepted)")
     else:
         raise SceneError("<scene>", f"must be the path of a YAML scene file or a mapping; "
                                     f"got {type(source).__name__}")

@@ -37,6 +37,7 @@ from pathlib import Path
 from ..problem.errors import SceneError, join, key_path, shown
 from ..problem.mechanism import assembly_error, topology
 from ..problem.scene import load_scene
+from ..problem.yaml_files import check_structure, load_yaml
 from ..response.batch import step_count
 from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
                     grid_points, grid_values, inner_points, material_names, scene_for)
@@ -77,21 +78,14 @@ _TYPE_WORDS = {"number": "a number", "integer": "an integer", "string": "a strin
 
 
 def load_config(path: str | Path) -> dict:
-    """Read a study config file as Snakemake does (YAML 1.1 via PyYAML, or JSON).
+    """Read a study config file as Snakemake does (YAML 1.1, or JSON), through the YAML reader
+    scenes use too (:func:`ced.problem.yaml_files.load_yaml`: its size, nesting and alias
+    limits, duplicate keys refused).
 
     Raises :class:`SceneError` at ``<config>`` for a file that cannot be read or parsed or
     whose top level is not a mapping.
     """
-    import yaml
-
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise SceneError("<config>", f"cannot read {str(path)!r}: {err}") from None
-    try:
-        config = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise SceneError("<config>", f"invalid YAML: {err}") from None
+    config = load_yaml(path, "<config>", "1.1")
     if not isinstance(config, dict):
         raise SceneError("<config>", f"the top level must be a mapping, got {shown(config)}")
     return config
@@ -431,6 +425,7 @@ def _largest_axis(config: dict) -> str:
 
 
 def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyEstimate]:
+    check_structure(config, "<config>")  # before anything walks it: alias bombs, deep nesting
     config = apply_schema(config)
     _check_finite(config, "<config>")
     points = grid_points(config)
@@ -470,8 +465,8 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
 def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
     """Check a study config completely and return a copy with the schema defaults filled in.
 
-    In order: the JSON schema (:func:`apply_schema`: types, ranges, unknown keys, families);
-    finite numbers; the study size (:data:`MAX_GRID_POINTS`, counted without building the
+    In order: size and nesting (:func:`ced.problem.yaml_files.check_structure`); the JSON
+    schema (:func:`apply_schema`: types, ranges, unknown keys, families); finite numbers; the study size (:data:`MAX_GRID_POINTS`, counted without building the
     grid); distinct grid values and material names; at least one assemblable geometry for
     each mechanism type of ``grids`` and a case for the families asked for; one scene per
     (family, material) and (family, section) through :func:`ced.problem.scene.load_scene`
