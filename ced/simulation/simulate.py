@@ -27,6 +27,7 @@ from ..response.frequencies import cycle_frequencies, first_natural_frequency, m
 from ..response.model import build_model
 from ..rigid.inverse_dynamics import inverse_dynamics
 from .dataset import VARIABLES, case_coordinates, make_dataset
+from .size import check_run_memory
 
 __all__ = ["simulate", "solve_batch"]
 
@@ -239,6 +240,7 @@ def simulate(scenes) -> xr.Dataset:
     normalized = [load_scene(s) for s in _as_list(scenes)]
     if not normalized:
         raise ValueError("simulate: no scenes given")
+    check_run_memory(normalized)  # before any work
     auto_reports = None
     if any(s["effects"] == "auto" for s in normalized):
         resolved = [resolve_auto(s) for s in normalized]

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 import re
 from collections import Counter
 from collections.abc import Mapping
@@ -35,10 +34,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..problem.errors import SceneError, join, key_path, shown
-from ..problem.mechanism import assembly_error, topology
+from ..problem.mechanism import assembly_error
 from ..problem.scene import load_scene
 from ..problem.yaml_files import check_structure, load_yaml
-from ..response.batch import step_count
+from ..simulation.size import (BASE_MEMORY_BYTES, case_bytes, case_memory, machine_memory,
+                               size_text)
 from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
                     grid_points, grid_values, inner_points, material_names, scene_for)
 
@@ -49,8 +49,6 @@ __all__ = [
     "study_estimate",
     "check_config",
     "StudyEstimate",
-    "case_bytes",
-    "machine_memory",
     "MAX_GRID_POINTS",
     "MAX_OUTPUT_BYTES",
     "SCHEMA_PATH",
@@ -62,13 +60,6 @@ __all__ = [
 MAX_GRID_POINTS = 10_000_000
 #: Largest estimated output accepted (uncompressed netCDF variables of every chunk), bytes.
 MAX_OUTPUT_BYTES = 10 * 10**12
-#: Peak memory of a chunk job ≈ BASE + FACTOR × chunk_size × (in-memory bytes of one case):
-#: the solver's float64 arrays, their concatenation across batches and the dataset handed to
-#: the netCDF writer (measured with tracemalloc on chunks of 16-64 cases of 256-1024 steps:
-#: 2.6-3.0).
-WORKING_MEMORY_FACTOR = 3
-#: Interpreter, numpy/scipy/xarray/netCDF4 and compiled kernels of a chunk job, bytes.
-BASE_MEMORY_BYTES = 300 * 2**20
 #: The JSON schema of study configs (applied by :func:`validate_config`).
 SCHEMA_PATH = Path(__file__).resolve().parents[2] / "workflow" / "schemas" / "config.schema.yaml"
 
@@ -214,56 +205,6 @@ def _check_finite(value, path: str) -> None:
             _check_finite(item, f"{path}[{i}]")
 
 
-def case_bytes(scene: dict, itemsize: int = 4) -> int:
-    """Bytes of one case's output variables (DESIGN §5), uncompressed.
-
-    With S output steps (``revolutions × steps_per_revolution // every + 1``), L links,
-    J joints, P stations, A modal angles, M modes, g = 1 for a slider-crank (guide force), e = 1
-    for an elastic formulation and m = 1 if a modal analysis is asked::
-
-        bytes = 8 S (3 + g + 3 L + 4 J) + e itemsize S 5 L P + e (8·5 L + 8 m A M) + 8·3 + 161
-
-    (time, crank angle, input torque, guide force; link angle, velocity, acceleration; joint
-    position and force; the five station fields, float32 on disk (``itemsize`` 4) and float64
-    in the solver (8); five per-link peaks; natural frequencies; three per-case scalars; status,
-    message and case coordinates.)
-
-    Parameters
-    ----------
-    scene : dict
-        A normalized scene (:func:`ced.problem.scene.load_scene`).
-    itemsize : int
-        Bytes per value of the station fields.
-    """
-    topo = topology(scene["mechanism"]["type"])
-    steps = step_count(scene) // scene["outputs"]["every"] + 1
-    links, joints = len(topo.link_names), len(topo.joint_names)
-    stations = scene["outputs"]["stations"]
-    disc = scene["discretization"]
-    elastic = disc == "auto" or disc["formulation"] != "rigid"
-    guide = scene["mechanism"]["type"] == "slider_crank"
-    modal = scene.get("modal") or {"angles": 0, "modes": 0}
-    total = 8 * steps * (3 + guide + 3 * links + 4 * joints) + 8 * 3 + 161
-    if elastic:
-        total += itemsize * steps * 5 * links * stations + 8 * 5 * links
-        total += 8 * modal["angles"] * modal["modes"]
-    return total
-
-
-def machine_memory() -> int:
-    """Physical memory of this machine, bytes (``os.sysconf``)."""
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-
-
-def _size(n: float) -> str:
-    """``1.2 GB`` (decimal units) for a byte count."""
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if n < 1000 or unit == "PB":
-            return f"{n:.3g} {unit}"
-        n /= 1000
-    raise AssertionError
-
-
 @dataclass(frozen=True)
 class StudyEstimate:
     """Size of a validated study (see :func:`case_bytes` for the per-case formula).
@@ -282,7 +223,8 @@ class StudyEstimate:
         Cases of the largest chunk job (``chunk_size`` or the size of the largest family).
     chunk_memory_bytes : int
         Estimated peak memory of the largest chunk job:
-        ``BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR × largest_chunk × case_bytes(itemsize=8)``.
+        ``BASE_MEMORY_BYTES + largest_chunk × case_memory`` (:mod:`ced.simulation.size`: the
+        same estimate ``ced run`` and ``ced.simulate`` apply before any work).
     """
 
     grid_points: int
@@ -297,8 +239,8 @@ class StudyEstimate:
         per_family = ", ".join(f"{f} {n}" for f, n in self.chunks.items())
         return (f"{self.cases} cases ({self.grid_points} grid points before the assembly "
                 f"check and family filter) in {jobs} chunk jobs ({per_family}); estimated "
-                f"output {_size(self.output_bytes)} uncompressed; estimated peak memory per "
-                f"chunk job {_size(self.chunk_memory_bytes)}")
+                f"output {size_text(self.output_bytes)} uncompressed; estimated peak memory per "
+                f"chunk job {size_text(self.chunk_memory_bytes)}")
 
 
 def _scene_error(err: SceneError, kind: str, material: int, section: int) -> SceneError:
@@ -381,13 +323,12 @@ def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyE
             sizes[family] = sizes.get(family, 0) + inner
             kinds[family] = kind
     output = sum(n * case_bytes(scenes[kinds[f]]) for f, n in sizes.items())
-    memory, largest = max((min(n, size) * case_bytes(scenes[kinds[f]], itemsize=8), min(n, size))
+    memory, largest = max((min(n, size) * case_memory(scenes[kinds[f]]), min(n, size))
                           for f, n in sizes.items())
     return StudyEstimate(
         grid_points=grid_points(config), cases=sum(sizes.values()),
         chunks={f: math.ceil(n / size) for f, n in sizes.items()}, output_bytes=output,
-        largest_chunk=largest,
-        chunk_memory_bytes=BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR * memory)
+        largest_chunk=largest, chunk_memory_bytes=BASE_MEMORY_BYTES + memory)
 
 
 #: A linkage of each mechanism type that can be assembled, to size a case before the grid is
@@ -413,11 +354,11 @@ def _upper_bounds(config: dict) -> str:
             return ""
         output += inner * math.prod(axis_length(grid.get(k, [0.0])) for k in keys) \
             * case_bytes(scene)
-        per_case = max(per_case, case_bytes(scene, itemsize=8))
+        per_case = max(per_case, case_memory(scene))
     chunk = min(config["chunk_size"], grid_points(config))
-    memory = BASE_MEMORY_BYTES + WORKING_MEMORY_FACTOR * chunk * per_case
-    return (f"; estimated output at most {_size(output)} uncompressed, peak memory per chunk "
-            f"job about {_size(memory)}")
+    memory = BASE_MEMORY_BYTES + chunk * per_case
+    return (f"; estimated output at most {size_text(output)} uncompressed, peak memory per chunk "
+            f"job about {size_text(memory)}")
 
 
 def _largest_axis(config: dict) -> str:
@@ -451,14 +392,14 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
     kept = [g for g in geometries if g[1] in config["families"]]
     estimate = _estimate(config, kept, _check_scenes(config, kept))
     if estimate.output_bytes > MAX_OUTPUT_BYTES:
-        raise SceneError("grids", f"estimated output {_size(estimate.output_bytes)} exceeds the "
-                                  f"limit of {_size(MAX_OUTPUT_BYTES)}: {estimate.summary()}")
+        raise SceneError("grids", f"estimated output {size_text(estimate.output_bytes)} exceeds the "
+                                  f"limit of {size_text(MAX_OUTPUT_BYTES)}: {estimate.summary()}")
     memory = machine_memory() if memory is None else memory
     if estimate.chunk_memory_bytes > memory:
         raise SceneError("chunk_size", (
             f"a chunk of {estimate.largest_chunk} cases needs about "
-            f"{_size(estimate.chunk_memory_bytes)} of memory, more than the "
-            f"{_size(memory)} of this machine; use a smaller chunk_size ({estimate.summary()})"))
+            f"{size_text(estimate.chunk_memory_bytes)} of memory, more than the "
+            f"{size_text(memory)} of this machine; use a smaller chunk_size ({estimate.summary()})"))
     return config, estimate
 
 

@@ -7,8 +7,8 @@ import yaml
 from snakemake.utils import validate
 
 from ced.problem.errors import SceneError
-from ced.study.cases import chunk_rows, chunks, family_sizes, grid_points, study_size
-from ced.study.config import case_bytes, check_config, study_estimate, validate_config
+from ced.study.cases import chunks, family_sizes, grid_points, study_size
+from ced.study.config import check_config, study_estimate, validate_config
 from tests.study.test_cases import CONFIGS, SCHEMA, default, load, small  # noqa: F401 (fixtures)
 
 
@@ -65,18 +65,6 @@ def test_check_config_names_the_bad_scene_key(small):
 def test_validate_config_accepts_every_config_and_fills_the_schema_defaults(path):
     raw = yaml.safe_load(path.read_text())
     assert validate_config(raw) == load(path)  # same defaults as snakemake's validate
-
-
-@pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
-def test_case_bytes_is_the_size_of_a_chunk_dataset(small, family, tmp_path):
-    from ced.problem.scene import load_scene
-    from ced.simulation.simulate import simulate
-
-    rows = chunk_rows(small, family, 0)
-    ds = simulate([r["scene"] for r in rows])
-    per_case = sum(v.nbytes for v in ds.variables.values() if "case" in v.dims) / len(rows)
-    estimate = case_bytes(load_scene(rows[0]["scene"]))
-    assert estimate == pytest.approx(per_case, rel=0.1)
 
 
 def test_grid_points_counts_without_building_the_grid(small):

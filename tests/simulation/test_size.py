@@ -1,0 +1,78 @@
+"""What a run asks of the machine (ced.simulation.size): the estimate ced check uses, applied
+by ced.simulate and ced run before any work."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ced.problem.errors import SceneError
+from ced.problem.scene import load_scene
+from ced.simulation.simulate import simulate
+from ced.simulation.size import BASE_MEMORY_BYTES, check_run_memory, run_memory
+
+FOUR_BAR = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                          "rocker": 0.35}}
+#: Every key is within its allowed range, but the products are not: 10⁹ steps (the time axis
+#: alone is 8 GB), 2·10⁶ steps × 10,001 stations, 1,000 modes × 10⁵ modal angles of a
+#: 512-element model.
+ABSURD = [
+    ("time.steps_per_revolution", {"time": {"revolutions": 1000, "steps_per_revolution": 10**6}}),
+    ("time.steps_per_revolution", {"time": {"revolutions": 2, "steps_per_revolution": 10**6},
+                                   "outputs": {"stations": 10001}}),
+    ("modal.angles", {"modal": {"modes": 1000, "angles": 100000},
+                      "discretization": {"elements_per_link": 512}}),
+]
+
+
+@pytest.mark.parametrize("key, scene", ABSURD, ids=["steps", "steps_and_stations", "modal"])
+def test_absurd_products_are_refused_before_any_work(key, scene, monkeypatch):
+    import ced.simulation.simulate as module
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("a batch was solved")
+    monkeypatch.setattr(module, "solve_batch", forbidden)
+    with pytest.raises(SceneError) as err:
+        simulate({**FOUR_BAR, **scene})
+    assert err.value.path == key
+    assert "of memory, more than the" in err.value.message
+
+
+def test_ced_run_refuses_in_bounded_memory(tmp_path):
+    scene = tmp_path / "absurd.yaml"
+    scene.write_text("mechanism: {type: four_bar, ground: 0.5, crank: 0.1, coupler: 0.45, "
+                     "rocker: 0.35}\ntime: {revolutions: 1000, steps_per_revolution: 1000000}\n")
+
+    def limited():
+        import resource
+        resource.setrlimit(resource.RLIMIT_AS, (2**30, 2**30))
+    exe = Path(sys.executable).with_name("ced")
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    result = subprocess.run([str(exe), "run", str(scene), "-o", str(tmp_path / "out.nc")],
+                            capture_output=True, text=True, preexec_fn=limited, env=env,
+                            timeout=300)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith("ced: error: time.steps_per_revolution: the run needs")
+    assert sorted(tmp_path.iterdir()) == [scene]
+
+
+def test_a_modest_run_fits_and_the_limit_is_the_given_memory():
+    scene = load_scene({**FOUR_BAR, "modal": {"modes": 3, "angles": 12}})
+    need, _ = run_memory([scene] * 10)
+    assert BASE_MEMORY_BYTES < need < 2 * 10**9
+    assert check_run_memory([scene] * 10, memory=need) == need
+    with pytest.raises(SceneError, match="more than the"):
+        check_run_memory([scene] * 10, memory=need - 1)
+
+
+@pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
+def test_case_bytes_is_the_size_of_a_chunk_dataset(family):
+    from ced.simulation.size import case_bytes
+    from ced.study.cases import chunk_rows
+    from tests.study.test_cases import ROOT, load
+
+    rows = chunk_rows(load(ROOT / "config" / "studies" / "test.yaml"), family, 0)
+    ds = simulate([r["scene"] for r in rows])
+    per_case = sum(v.nbytes for v in ds.variables.values() if "case" in v.dims) / len(rows)
+    assert case_bytes(load_scene(rows[0]["scene"])) == pytest.approx(per_case, rel=0.1)
