@@ -77,7 +77,7 @@ def snakemake(*args, directory: Path) -> None:
     assert result.returncode == 0, f"{' '.join(cmd)}\n{result.stdout}\n{result.stderr}"
 
 
-def browse(*args: str, user_data: Path, timeout=120) -> subprocess.CompletedProcess:
+def browse(*args: str, user_data: Path, timeout=600) -> subprocess.CompletedProcess:
     cmd = [str(chromium()), *FLAGS, f"--user-data-dir={user_data}", *args]
     result = subprocess.run(cmd, capture_output=True, timeout=timeout)
     assert result.returncode == 0, f"{' '.join(cmd)}\n{result.stderr.decode(errors='replace')}"

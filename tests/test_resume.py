@@ -45,7 +45,7 @@ def command(directory: Path, configfile: Path, *args: str) -> list[str]:
             "--configfile", str(configfile)]  # last: it takes several values
 
 
-def run(directory: Path, configfile: Path, *args: str, timeout=300) -> str:
+def run(directory: Path, configfile: Path, *args: str, timeout=900) -> str:
     cmd = command(directory, configfile, *args)
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=directory)
     output = result.stdout + result.stderr
@@ -146,17 +146,17 @@ def test_interrupted_run_resumes(tmp_path, reference, sig):
     with open(log, "w") as out:  # a file, not a pipe: jobs may outlive Snakemake a moment
         proc = subprocess.Popen(command(tmp_path, configfile), cwd=tmp_path,
                                 start_new_session=True, stdout=out, stderr=subprocess.STDOUT)
-    deadline = time.monotonic() + 120
+    deadline = time.monotonic() + 600
     try:
         # A chunk file, and Snakemake done with its job (a file whose job Snakemake has not yet
         # seen finish is rightly treated as incomplete).
         while not (list(chunk_dir.rglob("*.nc"))
                    and "(Rule: simulate_chunk)" in log.read_text()):
             assert proc.poll() is None, f"run ended before any chunk:\n{log.read_text()}"
-            assert time.monotonic() < deadline, "no chunk file after 120 s"
+            assert time.monotonic() < deadline, "no chunk file after 600 s"
             time.sleep(0.05)
         os.killpg(proc.pid, sig)
-        proc.wait(timeout=60)
+        proc.wait(timeout=300)
     finally:
         try:  # whatever is left of the group (nothing, normally)
             os.killpg(proc.pid, signal.SIGKILL)
@@ -175,7 +175,7 @@ def test_interrupted_run_resumes(tmp_path, reference, sig):
     if sig == signal.SIGKILL:
         # A killed Snakemake leaves its lock; the documented first step is --unlock.
         locked = subprocess.run(command(tmp_path, configfile), cwd=tmp_path, text=True,
-                                capture_output=True, timeout=120)
+                                capture_output=True, timeout=600)
         assert locked.returncode != 0 and "cannot be locked" in locked.stdout + locked.stderr
         run(tmp_path, configfile, "--unlock")
     output = run(tmp_path, configfile)  # the default profile: rerun-incomplete

@@ -22,7 +22,7 @@ TEST_STUDY = ROOT / "config" / "studies" / "test.yaml"
 FAMILIES = ("crank_rocker", "change_point", "slider_crank")
 
 
-def snakemake(*args, directory: Path, timeout=300) -> subprocess.CompletedProcess:
+def snakemake(*args, directory: Path, timeout=900) -> subprocess.CompletedProcess:
     """Run Snakemake on the repository's workflow with ``directory`` as working directory."""
     cmd = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE),
            "--directory", str(directory), "--profile", str(PROFILE), "--cores", "2", *args]
@@ -108,7 +108,7 @@ def test_lint():
     """No lint other than 'specify a conda environment or container' (the environment is the
     project's venv, see Makefile)."""
     result = subprocess.run([sys.executable, "-m", "snakemake", "--lint"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=120)
+                            capture_output=True, text=True, timeout=600)
     text = result.stdout + result.stderr
     lints = re.findall(r"^\s+\* (.+?):?$", text, re.M)
     assert "Lints for" in text or result.returncode == 0, text

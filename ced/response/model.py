@@ -23,6 +23,7 @@ from ..fem.coupling import Layout, build_layout, projection
 from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients, permute,
                                 split_order, system_terms)
 from ..fem.eigenproblem import natural_frequencies
+from ..problem.errors import SceneError
 from ..rigid.inverse_dynamics import inverse_dynamics
 from .batch import Batch
 
@@ -126,6 +127,11 @@ def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str
         if not layout.flexible[name]:
             continue
         rows, _, varying = layout.row_split(name)
+        if modes > len(rows):  # as modal.modes beyond the model's DOFs: an impossible value
+            raise SceneError("discretization.modes_per_link", (
+                f"{modes} modes per link asked for, but the {name} has only {len(rows)} "
+                f"interior degrees of freedom at this mesh; ask for at most {len(rows)} or "
+                "refine the mesh (elements_per_link)"))
         order = split_order(layout, name)
         links[name], basis = craig_bampton(links[name], len(rows), modes)
         n_interior = links[name].mass.shape[-1] - len(varying)

@@ -38,9 +38,10 @@ from ..problem.mechanism import assembly_error
 from ..problem.scene import load_scene
 from ..problem.yaml_files import check_structure, load_yaml
 from ..simulation.size import (BASE_MEMORY_BYTES, case_bytes, case_memory, machine_memory,
-                               size_text)
+                               run_memory, size_text)
 from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
                     grid_points, grid_values, inner_points, material_names, scene_for)
+from .convergence import load_sweep
 
 __all__ = [
     "load_config",
@@ -369,6 +370,7 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
     check_structure(config, "<config>")  # before anything walks it: alias bombs, deep nesting
     config = apply_schema(config)
     _check_finite(config, "<config>")
+    load_sweep(config, root=SCHEMA_PATH.parents[2])  # the Snakefile reads it at parse time
     points = grid_points(config)
     if points > MAX_GRID_POINTS:
         # Refused before any value is built: bounds on cases, output and memory are enough.
@@ -390,11 +392,18 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
     geometries = assemblable_geometries(config)
     _check_families(config, geometries)
     kept = [g for g in geometries if g[1] in config["families"]]
-    estimate = _estimate(config, kept, _check_scenes(config, kept))
+    scenes = _check_scenes(config, kept)
+    estimate = _estimate(config, kept, scenes)
     if estimate.output_bytes > MAX_OUTPUT_BYTES:
         raise SceneError("grids", f"estimated output {size_text(estimate.output_bytes)} exceeds the "
                                   f"limit of {size_text(MAX_OUTPUT_BYTES)}: {estimate.summary()}")
     memory = machine_memory() if memory is None else memory
+    for scene in scenes.values():  # one case too large: the base scene is to blame
+        need, key = run_memory([scene])
+        if need > memory:
+            raise SceneError(f"base_scene.{key}", (
+                f"one case needs about {size_text(need)} of memory, more than the "
+                f"{size_text(memory)} of this machine, whatever the chunk_size"))
     if estimate.chunk_memory_bytes > memory:
         raise SceneError("chunk_size", (
             f"a chunk of {estimate.largest_chunk} cases needs about "

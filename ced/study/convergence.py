@@ -28,7 +28,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import yaml
+
+from ..problem.errors import SceneError
+from ..problem.yaml_files import load_yaml
 
 if TYPE_CHECKING:  # pandas, xarray and the solver load lazily: the Snakefile imports this module
     import pandas as pd
@@ -55,26 +57,44 @@ def _merge(base: dict, override: dict) -> dict:
 
 
 def load_sweep(config: dict, root: str | Path = ".") -> dict | None:
-    """The ``convergence`` block of a study config (a mapping or a YAML path), or None.
+    """The ``convergence`` block of a study config (a mapping, or the path of a YAML file in
+    the project that holds one), or None.
 
     Parameters
     ----------
     config : dict
         Study config.
     root : path
-        Directory that relative paths are resolved against (the repository root).
+        The project's root: relative paths are resolved against it, and the file must lie
+        inside it (a study is reproducible from the project alone).
+
+    Raises
+    ------
+    SceneError
+        At ``convergence`` (or ``convergence.<key>``): a file that is missing, outside the
+        project or unreadable (the YAML reader of :mod:`ced.problem.yaml_files`), or a block
+        without one of its required keys.
     """
     block = config.get("convergence")
     if block is None:
         return None
     if isinstance(block, str):
-        path = Path(root) / block
-        block = (yaml.safe_load(path.read_text()) or {}).get("convergence")
-        if block is None:
-            raise ValueError(f"convergence: {path} has no 'convergence' key")
+        name, root = block, Path(root).resolve()
+        path = (root / name).resolve()
+        if not path.is_relative_to(root):
+            raise SceneError("convergence", f"{name!r} lies outside the project ({root}); "
+                                            "give a path inside it, such as "
+                                            "config/studies/convergence.yaml")
+        if not path.is_file():
+            raise SceneError("convergence", f"{name!r} is not a file of the project")
+        document = load_yaml(path, "convergence", "1.1")
+        block = document.get("convergence") if isinstance(document, dict) else None
+        if not isinstance(block, dict):
+            raise SceneError("convergence", f"{name!r} has no 'convergence' mapping")
     for key in ("base_scene", "families", "settings", "reference", "tolerances"):
         if key not in block:
-            raise ValueError(f"convergence.{key}: required")
+            raise SceneError(f"convergence.{key}", "missing; required keys here: base_scene, "
+                                                   "families, settings, reference, tolerances")
     return block
 
 

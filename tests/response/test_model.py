@@ -1,7 +1,9 @@
 """The KED model of a batch (ced.response.model): conservation, damping, effects built."""
 import numpy as np
+import pytest
 
 from ced.fem.eigenproblem import natural_frequencies
+from ced.problem.errors import SceneError
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
 from ced.response.integrators import march, newmark, start
@@ -51,3 +53,14 @@ def test_effects_not_requested_are_not_built():
     assert "floquet_multiplier_max" not in ds  # quasi-static: no shooting
     rigid = simulate({**simeon(), "discretization": {"formulation": "rigid"}})
     assert "stress" not in rigid and "natural_frequency" not in rigid
+
+
+def test_more_modes_per_link_than_interior_dofs_is_refused():
+    # Like modal.modes beyond the model's DOFs: one Euler–Bernoulli element of the clamped
+    # crank has 6 DOFs, 4 end translations and 1 clamped rotation, so 1 interior DOF.
+    scene = load_scene(simeon(discretization={"elements_per_link": 1, "modes_per_link": 512},
+                              links={"crank": {"flexible": True}}))
+    with pytest.raises(SceneError) as err:
+        build_model(make_batch([scene]))
+    assert err.value.path == "discretization.modes_per_link"
+    assert "only 1 interior degrees of freedom" in err.value.message
