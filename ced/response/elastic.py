@@ -23,6 +23,7 @@ from .integrators import (forced_columns, from_independent, integrator_for, marc
                           start)
 from .model import Model, StepTerms, build_model, terms_at
 from .periodic import INSTABILITY_MARGIN, shoot
+from .resonance import forced_resonance
 
 __all__ = ["elastic_response", "LARGE_DEFLECTION"]
 
@@ -57,6 +58,7 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     result.update(_recover(model, qz, qz_static))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
+    status[forced_resonance(model)] |= STATUS_FLAGS["resonant"]
     modal = scene.get("modal")
     if modal and model.layout.ny:
         freq = cycle_frequencies(model, modal_phases(modal["angles"]), modal["modes"])

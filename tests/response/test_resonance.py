@@ -1,0 +1,75 @@
+"""Forced resonance (ced.response.resonance): flagged where a load-carrying crank harmonic
+meets a mode's band over the cycle, whatever the start, and nowhere else."""
+import numpy as np
+import pytest
+import yaml
+
+from ced.problem.scene import load_scene
+from ced.problem.status import STATUS_FLAGS
+from ced.response.batch import make_batch
+from ced.response.model import build_model
+from ced.response.resonance import cycle_modes
+from ced.simulation.simulate import simulate
+
+REFERENCE = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
+SPEEDS = np.arange(60.0, 201.0, 10.0)  # rad/s; the coupler's first mode is 53–73 Hz here
+
+
+def reference(start: str, **changes) -> dict:
+    return {**REFERENCE, "outputs": {"error_estimate": False},
+            "time": {"revolutions": 2, "steps_per_revolution": 512, "start": start},
+            "modal": {"modes": 4, "angles": 72}, **changes}
+
+
+def bands(ds) -> np.ndarray:
+    """(case, mode, 2) Hz: each mode's band from the dataset's own modal analysis (72 angles,
+    ced.response.frequencies: a separate computation from the criterion's 32 samples)."""
+    f = ds.natural_frequency.values
+    return np.stack([f.min(axis=1), f.max(axis=1)], axis=-1)
+
+
+def resonant(ds) -> np.ndarray:
+    return (ds.status.values & STATUS_FLAGS["resonant"]) > 0
+
+
+@pytest.mark.parametrize("start", ["undeformed", "periodic"])
+def test_flagged_where_a_low_harmonic_meets_the_first_mode_and_not_where_none_comes_near(start):
+    ds = simulate([reference(start, drive={"speed": float(s)}) for s in SPEEDS])
+    band = bands(ds)
+    flagged = resonant(ds)
+    met, clear = [], []
+    for c, speed in enumerate(SPEEDS):
+        harmonics = np.arange(1, 6) * speed / (2 * np.pi)  # Hz, k = 1 … 5
+        low, high = band[c, 0]
+        # k ≤ 3 inside the first mode's band by a 1 % margin (the bands are sampled)
+        if any(low * 1.01 < h < high * 0.99 for h in harmonics[:3]):
+            met.append(c)
+        # no k ≤ 5 within 2 % of any mode's band
+        if not any(lo * 0.98 < h < hi * 1.02 for lo, hi in band[c] for h in harmonics):
+            clear.append(c)
+    assert len(met) >= 5 and len(clear) >= 2, (met, clear)  # both kinds are in the sweep
+    assert flagged[met].all(), SPEEDS[met][~flagged[met]]
+    assert not flagged[clear].any(), SPEEDS[clear][flagged[clear]]
+
+
+def test_the_first_modes_load_is_mostly_the_first_two_harmonics():
+    # The share a_ik of harmonic k in the first mode's load at 100 rad/s (module docstring):
+    # 62 % first harmonic, 25 % second, 6.4 % third, 1.9 % fourth, 0.47 % fifth, 0.12 % sixth.
+    model = build_model(make_batch([load_scene(reference("undeformed"))]))
+    omega, share = cycle_modes(model)
+    np.testing.assert_allclose(share[0, 1:7, 0], [0.624, 0.254, 0.064, 0.019, 0.0047, 0.0012],
+                               rtol=0.05)
+    assert np.isclose(share[0, :, 0].sum(), 1.0)
+    f1 = omega[0, :, 0] / (2 * np.pi)
+    assert 54 < f1.min() < f1.max() < 64  # the band over the cycle, Hz
+
+
+def test_damping_narrows_what_counts():
+    # 5 % modal damping: a harmonic must carry 2ζ = 10 % of the mode's load. The third
+    # harmonic (6.4 %) meets the band at 120 rad/s (3Ω/2π = 57 Hz) and no longer counts.
+    undamped = simulate(reference("undeformed", drive={"speed": 120.0}))
+    damped = simulate(reference("undeformed", drive={"speed": 120.0},
+                                effects=["inertia", "elastic_inertia", "coriolis",
+                                         "centrifugal", "axial_stiffening", "damping"],
+                                damping={"model": "modal", "ratio": 0.05}))
+    assert resonant(undamped)[0] and not resonant(damped)[0]
