@@ -23,6 +23,8 @@ __all__ = ["case_bytes", "solver_bytes", "case_memory", "run_memory", "check_run
 WORKING_MEMORY_FACTOR = 3
 #: Interpreter, numpy/scipy/xarray/netCDF4 and compiled kernels of a chunk job, bytes.
 BASE_MEMORY_BYTES = 300 * 2**20
+
+
 def case_bytes(scene: dict, itemsize: int = 4) -> int:
     """Bytes of one case's output variables (DESIGN §5), uncompressed.
 
