@@ -2,7 +2,7 @@
 
 A case's ``status`` is a bit field (CF ``flag_masks``); ``ok`` is the absence of every bit.
 The rigid analysis sets ``near_singular``; the elastic response sets ``large_deflection``,
-``resonant``, ``parametrically_unstable`` and ``buckled``; ``discretization: auto`` sets
+``resonant``, ``parametrically_unstable``, ``buckled`` and ``thick_link``; ``discretization: auto`` sets
 ``tolerance_unmet``; a case that raises is ``failed``.
 
 Examples
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-__all__ = ["STATUS_FLAGS", "status_code", "status_names"]
+__all__ = ["STATUS_FLAGS", "STATUS_DTYPE", "STATUS_FILL", "status_code", "status_names"]
 
 #: Bit of each status flag; "ok" is the absence of every other bit (CF flag_masks+flag_values).
 STATUS_FLAGS = {
@@ -33,7 +33,15 @@ STATUS_FLAGS = {
     # discretization: auto could not reach the scene's tolerance within its ladders' limits
     # (ced.auto.discretization): the error estimate says by how much.
     "tolerance_unmet": 128,
+    # A flexible link modelled as a beam (euler_bernoulli, timoshenko, seed_lame) is shorter
+    # than THICK_LINK_RATIO times its in-plane section height: beam theory does not hold
+    # there (docs/fidelity.md: below 3, plane_stress), whatever the mesh.
+    "thick_link": 256,
 }
+#: Integer type of ``status`` (the flags need 9 bits).
+STATUS_DTYPE = "uint16"
+#: ``status`` of a grid point without a case in the family maps (CF _FillValue).
+STATUS_FILL = 65535
 
 
 def status_code(flags: Iterable[str]) -> int:

@@ -25,10 +25,16 @@ from .model import Model, StepTerms, build_model, terms_at
 from .periodic import INSTABILITY_MARGIN, shoot
 from .resonance import forced_resonance
 
-__all__ = ["elastic_response", "LARGE_DEFLECTION"]
+__all__ = ["elastic_response", "thick_links", "LARGE_DEFLECTION", "THICK_LINK_RATIO"]
 
 #: Deflection / link length above which the linear model's validity is flagged.
 LARGE_DEFLECTION = 0.01
+#: Link length / in-plane section height below which beam theory does not hold (shear and
+#: the section's own deformation: docs/fidelity.md's rule of thumb, plane_stress below 3; at 3
+#: Timoshenko's first frequency is already 0.86 of Euler–Bernoulli's).
+THICK_LINK_RATIO = 3.0
+#: Formulations that model a link as a beam (plane_stress models the continuum).
+BEAMS = ("euler_bernoulli", "timoshenko", "seed_lame")
 
 
 def _near_singular(batch: Batch) -> np.ndarray:
@@ -53,6 +59,7 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     check_modes(scene, model.layout.ny)
     status = status.copy()
     status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
+    status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
     qz, qz_static = _response(model, status, result)
     result.update(_recover(model, qz, qz_static))
@@ -127,6 +134,20 @@ def _response(model: Model, status: np.ndarray, result: dict):
 
     march(scheme, terms, h, n_steps, state, record)
     return qz, qz_static
+
+
+def thick_links(batch: Batch) -> np.ndarray:
+    """(case,) bool: a flexible link modelled as a beam is shorter than
+    :data:`THICK_LINK_RATIO` × its in-plane section height."""
+    scene = batch.scenes[0]
+    flagged = np.zeros(batch.size, bool)
+    if scene["discretization"]["formulation"] not in BEAMS:
+        return flagged
+    for i, name in enumerate(batch.topology.links):
+        if scene["links"][name]["flexible"]:
+            height = batch.link_property(name, "section", "height")
+            flagged |= batch.link_lengths[:, i] < THICK_LINK_RATIO * height
+    return flagged
 
 
 def _check_stable_step(model: Model, limit: float) -> None:

@@ -17,7 +17,7 @@ import xarray as xr
 
 from .. import __version__
 from ..problem.mechanism import topology
-from ..problem.status import STATUS_FLAGS
+from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
 from ..response.batch import Batch
 
 __all__ = ["VARIABLES", "make_dataset", "case_coordinates", "source_string"]
@@ -73,7 +73,7 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "effects_auto": (
         ("case",), "", "effects chosen by effects: auto, with the estimated relative "
         "contribution of each (JSON)", "str"),
-    "status": (("case",), "1", "case status flags", "uint8"),
+    "status": (("case",), "1", "case status flags", STATUS_DTYPE),
     "message": (("case",), "", "diagnostic message", "str"),
 }
 
@@ -133,8 +133,8 @@ def make_dataset(
             attrs["units"] = units
         if name == "status":
             attrs["flag_masks"] = np.array(
-                [sum(STATUS_FLAGS.values())] + list(STATUS_FLAGS.values()), dtype="uint8")
-            attrs["flag_values"] = np.array([0] + list(STATUS_FLAGS.values()), dtype="uint8")
+                [sum(STATUS_FLAGS.values())] + list(STATUS_FLAGS.values()), dtype=STATUS_DTYPE)
+            attrs["flag_values"] = np.array([0] + list(STATUS_FLAGS.values()), dtype=STATUS_DTYPE)
             attrs["flag_meanings"] = " ".join(["ok"] + list(STATUS_FLAGS))
         variables[name] = xr.Variable(dims, values, attrs)
     ds = xr.Dataset(variables, coords=coords)

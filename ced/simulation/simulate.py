@@ -20,7 +20,7 @@ from ..auto.effects import resolve_auto
 from ..auto.error_estimate import error_estimates
 from ..problem.mechanism import topology
 from ..problem.scene import EFFECTS, load_scene
-from ..problem.status import STATUS_FLAGS
+from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
 from ..response.batch import Batch, make_batch, structure_key
 from ..response.elastic import elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
@@ -66,7 +66,7 @@ def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
     if forces.guide_force is not None:
         out["guide_force"] = forces.guide_force
     out = {k: v[:, ::every] for k, v in out.items()}
-    flags = np.zeros(batch.size, np.uint8)
+    flags = np.zeros(batch.size, STATUS_DTYPE)
     flags[motion.singular.any(axis=1)] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
     if scene["discretization"] == "auto":

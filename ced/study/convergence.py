@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..problem.errors import SceneError
+from ..problem.status import STATUS_DTYPE
 from ..problem.yaml_files import load_yaml
 
 if TYPE_CHECKING:  # pandas, xarray and the solver load lazily: the Snakefile imports this module
@@ -227,7 +228,7 @@ def run_family(sweep: dict, family: str) -> "xr.Dataset":
         "units": "1", "long_name": "ced's own estimate of the relative error of peak stress"})
     ds["solve_time"] = ("setting", frame["solve_time"].to_numpy(), {
         "units": "s", "long_name": f"solve time per case in a batch of {batch}"})
-    ds["status"] = ("setting", frame["status"].to_numpy(dtype="uint8"),
+    ds["status"] = ("setting", frame["status"].to_numpy(dtype=STATUS_DTYPE),
                     {"long_name": "status flags of the setting (ced.problem.status.STATUS_FLAGS)"})
     ref = references.get("euler_bernoulli") or next(iter(references.values()))
     for q in _QUANTITIES:

@@ -11,7 +11,7 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
 from ..problem.mechanism import topology  # noqa: E402
-from ..problem.status import STATUS_FLAGS, status_names  # noqa: E402
+from ..problem.status import STATUS_FILL, STATUS_FLAGS, status_names  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
            "resonance_map", "map_slice", "worst_case_figure", "magnification", "HARMONICS",
@@ -262,7 +262,7 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
     fig.colorbar(mesh, ax=ax, label=label)
     if "status" in sl:
         bits = np.nan_to_num(sl.status.transpose(y, "speed").values, nan=0).astype(int)
-        bad = ((bits & (4 | 8)) > 0) & (bits != 255)
+        bad = ((bits & (4 | 8)) > 0) & (bits != STATUS_FILL)
         if bad.any():
             yy, xx = np.nonzero(bad)
             ax.plot(speeds[xx], ys[yy], "x", color="r", ms=6, label="resonant / unstable")

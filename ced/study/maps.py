@@ -31,7 +31,7 @@ import numpy as np
 import xarray as xr
 
 from ..io import write_dataset
-from ..problem.status import STATUS_FLAGS
+from ..problem.status import STATUS_DTYPE, STATUS_FILL, STATUS_FLAGS
 from ..response.periodic import INSTABILITY_MARGIN
 
 __all__ = ["case_summary", "family_grid", "reduce_family", "harmonic_ratio", "stable_flag",
@@ -48,7 +48,7 @@ _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",
 GRID_ORDER = ("crank", "coupler", "rocker", "rod", "offset", "speed", "material", "section")
 
 #: Fill of integer variables at grid points without a case (CF _FillValue).
-_INT_FILL = {"uint8": 255, "int8": -1, "int32": -1, "int64": -1}
+_INT_FILL = {STATUS_DTYPE: STATUS_FILL, "int8": -1, "int32": -1, "int64": -1}
 
 
 def _yield_strength(ds: xr.Dataset) -> xr.DataArray | None:
@@ -223,7 +223,7 @@ def family_grid(summary: xr.Dataset) -> xr.Dataset:
     for d in dims:  # re-assert the CF attributes of the dimension coordinates
         grid[d].attrs = dict(summary[d].attrs)
     if "status" in grid:
-        grid["status"].attrs["comment"] = f"{_INT_FILL['uint8']} where the grid point has no case"
+        grid["status"].attrs["comment"] = f"{STATUS_FILL} where the grid point has no case"
     grid.attrs = dict(summary.attrs)
     grid.attrs["grid_dimensions"] = " ".join(dims)
     grid.attrs["comment"] = ("per-case results unstacked onto the study grid; NaN where the "
@@ -282,5 +282,5 @@ def _check_cf(ds: xr.Dataset) -> None:
     if "status" in ds:
         flags = ds["status"].attrs
         if "flag_meanings" not in flags:
-            flags.update(flag_masks=np.array(list(STATUS_FLAGS.values()), "uint8"),
+            flags.update(flag_masks=np.array(list(STATUS_FLAGS.values()), STATUS_DTYPE),
                          flag_meanings=" ".join(STATUS_FLAGS))

@@ -276,3 +276,23 @@ def test_periodic_state_with_stiff_reduced_modes_equals_the_marched_one():
     coarser = simulate(scene("periodic", 1, 32))
     assert float(periodic.peak_stress.max()) == pytest.approx(
         float(coarser.peak_stress.max()), rel=1e-4)
+
+
+@pytest.mark.parametrize("formulation, height, flagged", [
+    ("euler_bernoulli", 0.45 / 2.9, True), ("euler_bernoulli", 0.45 / 3.1, False),
+    ("timoshenko", 1.0, True), ("euler_bernoulli", 1.0, True), ("plane_stress", 1.0, False),
+])
+def test_a_link_too_thick_for_a_beam_is_flagged(formulation, height, flagged):
+    # Below length/height 3 beam theory does not hold (docs/fidelity.md); the continuum
+    # (plane_stress) has no such limit. The 0.45 m coupler: flagged from a height of 0.15 m.
+    scene = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                           "rocker": 0.35},
+             "links": {"crank": {"flexible": False}, "rocker": {"flexible": False},
+                       "coupler": {"section": {"shape": "rectangle", "height": height,
+                                               "width": 0.01}}},
+             "discretization": {"formulation": formulation, "elements_per_link": 2},
+             "time": {"revolutions": 1, "steps_per_revolution": 64},
+             "outputs": {"error_estimate": False}}
+    ds = simulate(scene)
+    assert bool(ds.status.values[0] & 256) == flagged
+    assert ds.status.attrs["flag_meanings"].split()[-1] == "thick_link"

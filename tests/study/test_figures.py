@@ -78,7 +78,7 @@ def test_worst_case_is_largest_design_case(maps):
     top = int(np.argmax(stress))
     assert _worst_case(ds) == int(ds.case[top])
     ds["status"] = ds.status.copy(data=np.where(np.arange(ds.sizes["case"]) == top, 16,
-                                                ds.status.values).astype("uint8"))
+                                                ds.status.values).astype(ds.status.dtype))
     stress[top] = -np.inf
     assert _worst_case(ds) == int(ds.case[int(np.argmax(stress))])
 

@@ -10,7 +10,7 @@ import yaml
 from snakemake.utils import validate
 
 import ced.study.cases
-from ced.problem.status import STATUS_FLAGS
+from ced.problem.status import STATUS_DTYPE, STATUS_FILL, STATUS_FLAGS
 from ced.study.maps import case_summary, family_grid, reduce_family
 from ced.study.cases import case_table, chunks
 from ced.study.chunk_job import run_chunk
@@ -54,7 +54,7 @@ def synthetic(n_links=2) -> xr.Dataset:
                  {"long_name": "link"}),
     }
     torque = np.arange(n, dtype=float) + 1.0
-    status = np.zeros(n, "uint8")
+    status = np.zeros(n, STATUS_DTYPE)
     status[2] = STATUS_FLAGS["resonant"]
     ds = xr.Dataset(
         {"peak_input_torque": ("case", torque, {"units": "N m", "long_name": "torque"}),
@@ -62,7 +62,7 @@ def synthetic(n_links=2) -> xr.Dataset:
                          {"units": "Pa", "long_name": "peak stress"}),
          "status": ("case", status, {"units": "1", "long_name": "case status flags",
                                      "flag_masks": np.array(list(STATUS_FLAGS.values()),
-                                                            "uint8"),
+                                                            STATUS_DTYPE),
                                      "flag_meanings": " ".join(STATUS_FLAGS)}),
          "message": ("case", np.array([""] * n, object), {"long_name": "diagnostic message"})},
         coords=coords)
@@ -88,7 +88,7 @@ def test_family_grid_unstacks_cases():
         assert grid["case"].sel(at).item() == row.case.item()
     missing = dict(crank=0.2, coupler=0.4, speed=100.0, material="steel", section=0)
     assert np.isnan(grid.peak_input_torque.sel(missing).item())
-    assert grid.status.sel(missing).item() == 255
+    assert grid.status.sel(missing).item() == STATUS_FILL
     assert grid["case"].sel(missing).item() == -1
     # other constant case coordinates become scalars; the section sizes live on `section`
     assert grid.family.dims == () and grid.family.item() == "crank_rocker"
@@ -110,7 +110,8 @@ def test_family_grid_round_trips_through_netcdf(tmp_path):
         assert back.status.sel(crank=0.1, coupler=0.4, speed=50.0, material="steel",
                                section=0).item() == 0
     with xr.open_dataset(path, engine="netcdf4", mask_and_scale=False) as raw:
-        assert raw.status.dtype == np.uint8 and raw.status.attrs["_FillValue"] == 255
+        assert raw.status.dtype == STATUS_DTYPE
+        assert raw.status.attrs["_FillValue"] == STATUS_FILL
 
 
 def test_family_grid_rejects_repeated_grid_points():
@@ -231,7 +232,7 @@ def test_stable_flag():
     from ced.study.maps import stable_flag
 
     floquet = xr.DataArray([0.5, 1.2, np.nan, 0.9, 0.9], dims="case")
-    status = xr.DataArray(np.array([0, 8, 16, 8, 0], "uint8"), dims="case")
+    status = xr.DataArray(np.array([0, 8, 16, 8, 0], STATUS_DTYPE), dims="case")
     flag = stable_flag(floquet, status)
     assert flag.values.tolist() == [1, 0, -1, 0, 1]
     assert flag.attrs["flag_meanings"] == "unstable stable"
