@@ -115,3 +115,13 @@ def test_concurrent_writers_of_one_path_never_crash_each_other(tmp_path):
         values = np.unique(ds.x.values)
     assert values.tolist() in ([1.0], [2.0])
     assert sorted(tmp_path.iterdir()) == [out]
+
+
+def test_unwritable_output_directory_is_refused(tmp_path, capsys, monkeypatch):
+    # CI runs as root, for whom every directory is writable: the permission test itself is
+    # stood in for (os.access is what check_output asks).
+    import ced.io
+
+    monkeypatch.setattr(ced.io.os, "access", lambda path, mode: False)
+    err = refused([str(SCENE), "-o", str(tmp_path / "out.nc")], capsys, monkeypatch)
+    assert "permission denied" in err
