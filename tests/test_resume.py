@@ -146,8 +146,12 @@ def test_interrupted_run_resumes(tmp_path, reference, sig):
     chunk_dir = tmp_path / "results" / "test" / "chunks"
     log = tmp_path / "interrupted.log"
     with open(log, "w") as out:  # a file, not a pipe: jobs may outlive Snakemake a moment
+        # SIGINT back to its default in the child: a test run started in the background by a
+        # non-interactive shell (`make test &`) ignores SIGINT, and the ignored disposition is
+        # inherited across exec, so Snakemake would never see the interruption.
         proc = subprocess.Popen(command(tmp_path, configfile), cwd=tmp_path,
-                                start_new_session=True, stdout=out, stderr=subprocess.STDOUT)
+                                start_new_session=True, stdout=out, stderr=subprocess.STDOUT,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 600
     try:
         # A chunk file, and Snakemake done with its job (a file whose job Snakemake has not yet
