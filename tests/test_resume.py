@@ -30,11 +30,10 @@ TEST_STUDY = ROOT / "config" / "studies" / "test.yaml"
 
 
 def study_config(directory: Path) -> tuple[Path, dict[str, int]]:
-    """The test study with one case per chunk (16 chunk jobs of about a second each, so that an
-    interruption after the first lands mid-run even when a loaded machine starves the test),
-    written to ``directory``; returns its path and the number of chunks per family."""
+    """The test study with two cases per chunk (8 chunks of about a second each), written to
+    ``directory``; returns its path and the number of chunks per family."""
     config = yaml.safe_load(TEST_STUDY.read_text())
-    config["chunk_size"] = 1
+    config["chunk_size"] = 2
     path = directory / "resume.yaml"
     path.write_text(yaml.safe_dump(config))
     return path, chunks(config)
