@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -119,9 +120,23 @@ def main(argv: list[str] | None = None) -> int:
     except SceneError as err:
         print(f"ced: error: {err}", file=sys.stderr)
         return 2
-    except ValueError as err:  # invalid geometry given on the command line
-        print(f"ced: error: {err}", file=sys.stderr)
-        return 2
+    except ValueError as err:
+        if args.command == "classify":  # invalid geometry given on the command line
+            print(f"ced: error: {err}", file=sys.stderr)
+            return 2
+        return _failed(err)
+    except Exception as err:  # noqa: BLE001 — a failed solve: a message, not a traceback
+        return _failed(err)
+
+
+def _failed(err: Exception) -> int:
+    """A run that failed for a reason other than its input: exit 1 with a message (the
+    traceback only with ``CED_TRACEBACK=1``)."""
+    if os.environ.get("CED_TRACEBACK"):
+        raise err
+    print(f"ced: error: the run failed: {type(err).__name__}: {err} (set CED_TRACEBACK=1 to "
+          "see where)", file=sys.stderr)
+    return 1
 
 
 if __name__ == "__main__":

@@ -125,3 +125,16 @@ def test_unwritable_output_directory_is_refused(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(ced.io.os, "access", lambda path, mode: False)
     err = refused([str(SCENE), "-o", str(tmp_path / "out.nc")], capsys, monkeypatch)
     assert "permission denied" in err
+
+
+def test_a_failed_solve_is_a_message_not_a_traceback(tmp_path, capsys, monkeypatch):
+    import ced.simulation.simulate
+
+    def broken(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+    monkeypatch.setattr(ced.simulation.simulate, "solve_batch", broken)
+    monkeypatch.delenv("CED_TRACEBACK", raising=False)
+    assert main(["run", str(SCENE), "-o", str(tmp_path / "out.nc")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ced: error: the run failed: LinAlgError: Singular matrix")
+    assert not (tmp_path / "out.nc").exists()

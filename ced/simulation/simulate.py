@@ -18,6 +18,7 @@ import xarray as xr
 from ..auto.discretization import resolve_discretization
 from ..auto.effects import resolve_auto
 from ..auto.error_estimate import error_estimates
+from ..problem.errors import SceneError, join
 from ..problem.mechanism import topology
 from ..problem.scene import EFFECTS, load_scene
 from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
@@ -254,15 +255,17 @@ def simulate(scenes) -> xr.Dataset:
         auto_discretization = [json.dumps(r, sort_keys=True) if r else "" for r in reports]
     kinds = {s["mechanism"]["type"] for s in normalized}
     if len(kinds) > 1:
-        raise ValueError(f"simulate: all scenes must share mechanism.type, got {sorted(kinds)}")
+        raise SceneError("mechanism.type", f"the scenes of one run must share it (one "
+                                           f"dataset), got {join(sorted(kinds))}")
     groups: dict[tuple, list[int]] = {}
     for index, scene in enumerate(normalized):
         groups.setdefault(structure_key(scene), []).append(index)
     n_out = {k[1] // k[2] + 1 for k in groups}
     if len(n_out) > 1:
-        raise ValueError(
-            "simulate: scenes must share the number of output steps "
-            "(time.revolutions × time.steps_per_revolution / outputs.every)")
+        raise SceneError("time.revolutions", "the scenes of one run must share the number of "
+                                             "output steps (time.revolutions × "
+                                             "time.steps_per_revolution / outputs.every): one "
+                                             "dataset has one step dimension")
 
     solved = _solve_groups(normalized, groups)
     batches = [batch for batch, _, _, _ in solved]
