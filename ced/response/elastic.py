@@ -13,15 +13,17 @@ import math
 
 import numpy as np
 
-from ..fem.recovery import link_fields, peaks
+from ..fem.recovery import deflection, link_fields, peaks
 from ..problem.errors import SceneError
 from ..problem.mechanism import near_singular
 from ..problem.status import STATUS_FLAGS
 from .batch import Batch
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
-from .integrators import (forced_columns, from_independent, integrator_for, march, stability_limit,
-                          start)
-from .model import Model, StepTerms, build_model, terms_at
+from .integrators import from_independent, integrator_for, stability_limit, start
+from .kernels import expand, static_period
+from .marching import Marcher
+from .model import Model, build_model, terms_at
+from .period_terms import PeriodTerms, period_terms
 from .periodic import INSTABILITY_MARGIN, shoot
 from .resonance import forced_resonance
 
@@ -47,12 +49,16 @@ def _near_singular(batch: Batch) -> np.ndarray:
                          batch.initial_angle, batch.amplitude)
 
 
-def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
+def elastic_response(batch: Batch, status: np.ndarray,
+                     peaks_only: bool = False) -> dict[str, np.ndarray]:
     """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
 
     ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
     elastic ones (resonant, parametrically_unstable, large_deflection, near_singular where the
-    pin-jointed structure loses its stiffness, buckled).
+    pin-jointed structure loses its stiffness, buckled). ``peaks_only`` returns the per-link
+    peaks, the modal analysis and the status alone — what an error estimate's companion or a
+    pilot needs — without the station fields, the quasi-static response (dynamic
+    amplification) and the forced-resonance check.
     """
     model = build_model(batch)
     scene = batch.scenes[0]
@@ -61,11 +67,12 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
-    qz, qz_static = _response(model, status, result)
-    result.update(_recover(model, qz, qz_static))
+    qz, qz_static = _response(model, status, result, static=not peaks_only)
+    result.update(_recover(model, qz, qz_static, fields=not peaks_only))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
-    status[forced_resonance(model)] |= STATUS_FLAGS["resonant"]
+    if not peaks_only:
+        status[forced_resonance(model)] |= STATUS_FLAGS["resonant"]
     modal = scene.get("modal")
     if modal and model.layout.ny:
         freq = cycle_frequencies(model, modal_phases(modal["angles"]), modal["modes"])
@@ -80,36 +87,40 @@ def elastic_response(batch: Batch, status: np.ndarray) -> dict[str, np.ndarray]:
     return result
 
 
-def _response(model: Model, status: np.ndarray, result: dict):
+def _response(model: Model, status: np.ndarray, result: dict, static: bool = True):
     """Joint and link displacements z at the output steps, dynamic and quasi-static
-    (case, out_step, nz); adds the Floquet results of a periodic start to ``result``."""
+    (case, out_step, nz; the quasi-static one None unless ``static`` or the model is
+    quasi-static); adds the Floquet results of a periodic start to ``result``.
+
+    The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
+    over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
+    is solved over the period only."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
-    out_steps = np.arange(0, n_steps + 1, scene["outputs"]["every"])
+    every = scene["outputs"]["every"]
+    out_steps = np.arange(0, n_steps + 1, every)
     qz = np.zeros((ncase, len(out_steps), layout.nz))
-    qz_static = np.zeros_like(qz)
     if not ny:
-        return qz, qz_static
-    cache = StepTerms(model, h, n_steps)
-
-    def static(j):
-        K, F = cache.terms.stiffness[:, j], cache.terms.force[:, j]
-        return layout.expand(cache.P[:, j], np.linalg.solve(K, F[..., None])[..., 0])
-
-    if "elastic_inertia" not in model.effects:  # quasi-static: K q = F at each instant
-        for i, k in enumerate(out_steps):
-            qz[:, i] = static(cache.load(k))
-        return qz, qz
-
+        return qz, qz.copy()
     time_cfg = scene["time"]
+    # Near a change point or toggle the terms have features narrower than any sampling can
+    # see between its samples: a batch holding such a case evaluates every step.
+    sharp = bool((status & STATUS_FLAGS["near_singular"]).any())
+    period = period_terms(model, h, time_cfg["steps_per_revolution"], exact=sharp)
+    quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
+    qz_static = None
+    if static or quasi_static:
+        qz_static = _expand(layout, period, _static(period)[:, out_steps % period.period],
+                            out_steps)
+    if quasi_static:
+        return qz_static, qz_static
     scheme = integrator_for(time_cfg)
     _check_stable_step(model, stability_limit(scheme))
+    marcher = Marcher(scheme, period, h)
+    terms = marcher.columns(1)
     if time_cfg["start"] == "periodic":
-        periodic, mu, resonant = shoot(scheme, cache, h, time_cfg["steps_per_revolution"],
-                                       ny, ncase)
-        cache = StepTerms(model, h, n_steps)
-        terms = forced_columns(cache, 1)
+        periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase)
         state = from_independent(terms, scheme, *periodic)
         largest = np.abs(mu).max(axis=-1)
         result["floquet_multiplier_max"] = largest
@@ -120,20 +131,28 @@ def _response(model: Model, status: np.ndarray, result: dict):
         v0 = np.zeros_like(q0)
         if time_cfg["start"] == "quasi_static":
             q0, v0 = _quasi_static_start(model, h)
-        terms = forced_columns(cache, 1)
         state = start(terms, q0, v0)
+    _, record = marcher.march(state, n_steps, every)
+    return _expand(layout, period, record, out_steps), qz_static
 
-    out_index = {int(k): i for i, k in enumerate(out_steps)}
 
-    def record(k, st):
-        i = out_index.get(k)
-        if i is not None:
-            j = cache.load(k)
-            qz[:, i] = layout.expand(cache.P[:, j], st.q[..., 0])
-            qz_static[:, i] = static(j)
+def _static(period: PeriodTerms) -> np.ndarray:
+    """Quasi-static response K y = F at every step of the period (case, P, ny)."""
+    y = np.empty(period.force.shape)
+    ok = np.ones(len(y), bool)
+    static_period(period.stiffness, period.force, y, ok)
+    if not ok.all():  # as numpy's solve would: the batch is re-run case by case
+        raise np.linalg.LinAlgError(
+            f"Singular matrix: the stiffness of case {int(np.argmax(~ok))}")
+    return y
 
-    march(scheme, terms, h, n_steps, state, record)
-    return qz, qz_static
+
+def _expand(layout, period: PeriodTerms, y: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Joint and link displacements z = P y at the given steps (case, step, nz)."""
+    z = np.empty(y.shape[:2] + (layout.nz,))
+    expand(period.projection, np.ascontiguousarray(y), steps.astype(np.int64),
+           layout.interior_rows().astype(np.int64), z)
+    return z
 
 
 def thick_links(batch: Batch) -> np.ndarray:
@@ -175,15 +194,21 @@ def _check_stable_step(model: Model, limit: float) -> None:
             f"(newmark with 2β ≥ γ, hht, generalized_alpha, houbolt)")
 
 
-def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray) -> dict[str, np.ndarray]:
-    """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification."""
+def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
+             fields: bool = True) -> dict[str, np.ndarray]:
+    """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification
+    (without ``qz_static``: none).
+
+    The station fields are returned in float32, as they are stored; the peaks are taken from
+    the float64 values first. ``fields=False`` returns the peaks alone."""
     batch, layout = model.batch, model.layout
     topo = layout.topology
     ncase, nout = qz.shape[:2]
-    shape = (ncase, nout, len(topo.links), len(model.stations))
-    fields = {name: np.zeros(shape) for name in
-              ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")}
-    static_deflection = np.zeros(shape)
+    nlink = len(topo.links)
+    shape = (ncase, nout, nlink, len(model.stations))
+    names = ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")
+    stored = {name: np.zeros(shape, np.float32) for name in names} if fields else {}
+    peak, peak_stress, static_peak = (np.zeros((ncase, nlink)) for _ in range(3))
     offsets = layout.link_offsets
     for i, name in enumerate(topo.links):
         if name not in model.recovery:
@@ -191,18 +216,20 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray) -> dict[str, n
         rows = slice(offsets[name], offsets[name] + layout.link_sizes[name])
         height = batch.link_property(name, "section", "height")
         E = batch.link_property(name, "material", "E")
-        for key, value in link_fields(qz[..., rows], model.recovery[name], model.stations,
-                                      height, E).items():
-            fields[key][:, :, i] = value
-        static_deflection[:, :, i] = link_fields(
-            qz_static[..., rows], model.recovery[name], model.stations, height,
-            E)["deflection"]
-    peak = peaks(fields["deflection"])
-    static_peak = peaks(static_deflection)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        amplification = np.where(static_peak > 0, peak / static_peak, 1.0)
-    return {**fields, "peak_deflection": peak, "peak_stress": peaks(fields["stress"]),
-            "dynamic_amplification": amplification}
+        link = link_fields(qz[..., rows], model.recovery[name], model.stations, height, E)
+        for key, value in stored.items():
+            value[:, :, i] = link[key]
+        peak[:, i] = peaks(link["deflection"][:, :, None])[:, 0]
+        peak_stress[:, i] = peaks(link["stress"][:, :, None])[:, 0]
+        if qz_static is not None:
+            static = deflection(qz_static[..., rows], model.recovery[name]["v"],
+                                model.stations)
+            static_peak[:, i] = peaks(static[:, :, None])[:, 0]
+    out = {**stored, "peak_deflection": peak, "peak_stress": peak_stress}
+    if qz_static is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["dynamic_amplification"] = np.where(static_peak > 0, peak / static_peak, 1.0)
+    return out
 
 
 def _quasi_static_start(model: Model, h: np.ndarray):

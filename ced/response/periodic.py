@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .integrators import (Integrator, NewmarkFamily, forced_columns, from_independent,
-                          independent, march)
-from .model import StepTerms
+from .integrators import Integrator, NewmarkFamily, from_independent, independent
+from .marching import Marcher
 
 __all__ = ["shoot", "resonant", "RESONANCE_GAP", "RESONANCE_SHARE", "INSTABILITY_MARGIN"]
 
@@ -25,7 +24,7 @@ RESONANCE_SHARE = 0.5
 INSTABILITY_MARGIN = 1e-6
 
 
-def shoot(scheme: Integrator, cache: StepTerms, h: np.ndarray, steps_per_period: int, ny: int,
+def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int, ny: int,
           ncase: int):
     """Exact periodic state of the discretized system and its Floquet multipliers.
 
@@ -56,8 +55,8 @@ def shoot(scheme: Integrator, cache: StepTerms, h: np.ndarray, steps_per_period:
     cols = np.concatenate([np.zeros((ncase, r, 1)),
                            np.broadcast_to(np.eye(r), (ncase, r, r)) / scale[:, :, None]], axis=2)
     parts = [cols[:, i * ny : (i + 1) * ny].copy() for i in range(3)]
-    terms = forced_columns(cache, r + 1)
-    end = march(scheme, terms, h, steps_per_period, from_independent(terms, scheme, *parts))
+    terms = marcher.columns(r + 1)
+    end, _ = marcher.march(from_independent(terms, scheme, *parts), steps_per_period)
     final = independent(scheme, end) * scale[:, :, None]  # (case, 3n, r + 1), scaled
     p, Phi = final[..., 0], final[..., 1:]
     A = np.eye(r) - Phi

@@ -28,7 +28,7 @@ from ..response.frequencies import cycle_frequencies, first_natural_frequency, m
 from ..response.model import build_model
 from ..rigid.inverse_dynamics import inverse_dynamics
 from .dataset import VARIABLES, case_coordinates, make_dataset
-from .size import check_run_memory
+from .size import cases_per_solve, check_run_memory
 
 __all__ = ["simulate", "solve_batch"]
 
@@ -39,43 +39,76 @@ def _as_list(scenes) -> list:
     return list(scenes)
 
 
-def solve_batch(batch: Batch) -> dict[str, np.ndarray]:
+def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:
     """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
-    ``case`` axis, sampled every ``outputs.every`` steps.
+    ``case`` axis, sampled every ``outputs.every`` steps. A batch larger than
+    :func:`ced.simulation.size.cases_per_solve` is solved in parts. ``peaks_only`` is the
+    solve of a pilot or an error estimate's companion: the rigid results over one period and
+    the elastic peaks, without the histories
+    (:func:`ced.response.elastic.elastic_response`).
     """
+    limit = cases_per_solve(batch.scenes[0])
+    if batch.size > limit:
+        parts = [_solve_part(make_batch(batch.scenes[i:i + limit]), peaks_only)
+                 for i in range(0, batch.size, limit)]
+        return {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
+    return _solve_part(batch, peaks_only)
+
+
+def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:
     scene = batch.scenes[0]
     effects = scene["effects"]
     if effects == "auto":
         raise ValueError("effects: auto must be resolved before solving "
                          "(ced.auto.effects.resolve_auto, as simulate does)")
-    every = scene["outputs"]["every"]
-    motion = batch.rigid_motion()
-    forces = inverse_dynamics(
-        motion, batch.bodies, batch.gravity, inertia="inertia" in effects)
-    out = {
-        "time": motion.time,
-        "crank_angle": motion.link_angle[:, :, 0],
-        "joint_position": motion.joint_position,
-        "link_angle": motion.link_angle,
-        "link_angular_velocity": motion.link_angular_velocity,
-        "link_angular_acceleration": motion.link_angular_acceleration,
-        "joint_force": forces.joint_force,
-        "input_torque": forces.input_torque,
-    }
-    if forces.guide_force is not None:
-        out["guide_force"] = forces.guide_force
-    out = {k: v[:, ::every] for k, v in out.items()}
+    out, singular = _rigid_outputs(batch, "inertia" in effects, one_period=peaks_only)
     flags = np.zeros(batch.size, STATUS_DTYPE)
-    flags[motion.singular.any(axis=1)] |= STATUS_FLAGS["near_singular"]
+    flags[singular] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
     if scene["discretization"] == "auto":
         raise ValueError("discretization: auto must be resolved before solving "
                          "(ced.auto.discretization.resolve_discretization, as simulate does)")
     if scene["discretization"]["formulation"] != "rigid":
-        out.update(elastic_response(batch, out["status"]))
+        out.update(elastic_response(batch, out["status"], peaks_only))
     return out
+
+
+def _rigid_outputs(batch: Batch, inertia: bool,
+                   one_period: bool = False) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Rigid motion and inverse dynamics at the output steps (``one_period``: at every step of
+    the first period only), and the cases whose transmission is singular somewhere (case,).
+
+    The motion repeats every input period (steps_per_revolution steps): it is solved over one
+    period and repeated, the link angles advanced by the turns each link makes per period.
+    """
+    scene = batch.scenes[0]
+    every = scene["outputs"]["every"]
+    period = scene["time"]["steps_per_revolution"]
+    solved = np.arange(min(batch.n_steps, period) + 1)
+    steps = solved if one_period else np.arange(0, batch.n_steps + 1, every)
+    motion = batch.rigid_motion(batch.step_size[:, None] * solved[None, :])
+    forces = inverse_dynamics(motion, batch.bodies, batch.gravity, inertia=inertia)
+    j, turns = steps % period, steps // period
+    angle = motion.link_angle[:, j]
+    if batch.n_steps > period:
+        per_period = np.round((motion.link_angle[:, period] - motion.link_angle[:, 0])
+                              / (2.0 * np.pi))
+        angle = angle + 2.0 * np.pi * turns[None, :, None] * per_period[:, None, :]
+    out = {
+        "time": batch.step_size[:, None] * steps[None, :],
+        "crank_angle": angle[:, :, 0],
+        "joint_position": motion.joint_position[:, j],
+        "link_angle": angle,
+        "link_angular_velocity": motion.link_angular_velocity[:, j],
+        "link_angular_acceleration": motion.link_angular_acceleration[:, j],
+        "joint_force": forces.joint_force[:, j],
+        "input_torque": forces.input_torque[:, j],
+    }
+    if forces.guide_force is not None:
+        out["guide_force"] = forces.guide_force[:, j]
+    return out, motion.singular.any(axis=1)
 
 
 def _nonfinite(result: dict[str, np.ndarray]) -> dict[int, list[str]]:
@@ -119,10 +152,11 @@ def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
         messages[case] = f"failed: non-finite {', '.join(names)}: {cause}"
 
 
-def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
+def _solve_isolated(batch: Batch,
+                    peaks_only: bool = False) -> tuple[dict[str, np.ndarray], list[str]]:
     """Solve a batch; if it fails, solve its cases one by one and record the failures."""
     try:
-        result, messages = solve_batch(batch), [""] * batch.size
+        result, messages = solve_batch(batch, peaks_only), [""] * batch.size
         _fail_nonfinite(result, messages)
         return result, messages
     except Exception:  # noqa: BLE001 — isolate the failing case(s) below
@@ -131,7 +165,7 @@ def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
     results, messages = [], []
     for scene in batch.scenes:
         try:
-            results.append(solve_batch(make_batch([scene])))
+            results.append(solve_batch(make_batch([scene]), peaks_only))
             messages.append("")
         except Exception as err:  # noqa: BLE001 — a failed case is recorded, not fatal
             results.append(None)
@@ -155,18 +189,22 @@ def _solve_isolated(batch: Batch) -> tuple[dict[str, np.ndarray], list[str]]:
     return merged, messages
 
 
-def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]]) -> list[tuple]:
+def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
+                  peaks_only: bool = False) -> list[tuple]:
     """Solve each group of structurally identical scenes as one batch.
 
     Returns (batch, indices, result, (messages, seconds per case)) per group.
     """
     solved = []
-    for indices in groups.values():
-        batch = make_batch([scenes[i] for i in indices])
-        start = _time.perf_counter()
-        result, messages = _solve_isolated(batch)
-        seconds = (_time.perf_counter() - start) / batch.size
-        solved.append((batch, indices, result, (messages, seconds)))
+    for group in groups.values():
+        limit = cases_per_solve(scenes[group[0]])  # parts of bounded memory, failures isolated
+        for first in range(0, len(group), limit):
+            indices = group[first:first + limit]
+            batch = make_batch([scenes[i] for i in indices])
+            start = _time.perf_counter()
+            result, messages = _solve_isolated(batch, peaks_only)
+            seconds = (_time.perf_counter() - start) / batch.size
+            solved.append((batch, indices, result, (messages, seconds)))
     return solved
 
 
@@ -200,10 +238,13 @@ def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
     out = {key: np.full(len(scenes), np.nan) for key in ("peak", "omega1", "speed")}
-    for key, indices in groups.items():
+    limits = {key: cases_per_solve(scenes[indices[0]]) for key, indices in groups.items()}
+    parts = [group[i:i + limits[key]] for key, group in groups.items()
+             for i in range(0, len(group), limits[key])]
+    for indices in parts:
         try:
-            ((batch, _, result, _),) = _solve_groups(scenes, {key: indices})
-        except Exception:  # noqa: BLE001 — with keep_going: every companion of the group
+            ((batch, _, result, _),) = _solve_groups(scenes, {0: indices}, peaks_only=True)
+        except Exception:  # noqa: BLE001 — with keep_going: every companion of the part
             if keep_going:  # failed, so these cases get no estimate; their own results stand
                 continue
             raise

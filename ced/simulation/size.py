@@ -14,7 +14,8 @@ from ..problem.mechanism import topology
 from ..response.batch import step_count
 
 __all__ = ["case_bytes", "solver_bytes", "case_memory", "run_memory", "check_run_memory",
-           "machine_memory", "size_text", "WORKING_MEMORY_FACTOR", "BASE_MEMORY_BYTES"]
+           "cases_per_solve", "machine_memory", "size_text", "WORKING_MEMORY_FACTOR",
+           "BASE_MEMORY_BYTES", "SOLVER_BUDGET_BYTES", "MAX_CASES_PER_SOLVE"]
 
 #: Peak memory of a chunk job ≈ BASE + FACTOR × chunk_size × (in-memory bytes of one case):
 #: the solver's float64 arrays, their concatenation across batches and the dataset handed to
@@ -90,19 +91,40 @@ def _dofs(scene: dict) -> int:
 
 
 def solver_bytes(scene: dict) -> int:
-    """Working arrays of the solver for one case beyond its outputs, bytes: the modal analysis
-    holds K and M (and two factors) at every modal angle at once, 8·4·A·n² for n DOFs; the
-    periodic shooting a 3n × 3n monodromy matrix and its factors, 8·4·9n²."""
+    """Working arrays of the solver for one case beyond its outputs, bytes: the system over
+    one period (:mod:`ced.response.period_terms`: M, C, K, their step factorizations and the
+    projection, 8·P·(5n² + n) for P steps per revolution and n DOFs); the modal analysis holds K
+    and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
+    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns."""
     n = _dofs(scene)
+    if not n:
+        return 0
     modal = scene.get("modal") or {"angles": 0}
     shooting = scene["time"]["start"] == "periodic"
-    return 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
+    period = 8 * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
+    return period + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
+
+
+#: Bytes of solver working arrays one batch may hold: a larger batch is solved in parts
+#: (:func:`cases_per_solve`), so per-case cost and memory stay flat with the batch size.
+SOLVER_BUDGET_BYTES = 256 * 2**20
+#: Cases per part at most: numpy's per-call cost is amortized well before this.
+MAX_CASES_PER_SOLVE = 256
+
+
+def cases_per_solve(scene: dict) -> int:
+    """Cases of ``scene``'s structure solved together: as many as fit
+    :data:`SOLVER_BUDGET_BYTES` of :func:`solver_bytes`, between 1 and
+    :data:`MAX_CASES_PER_SOLVE`."""
+    return int(min(MAX_CASES_PER_SOLVE,
+                   max(1, SOLVER_BUDGET_BYTES // max(solver_bytes(scene), 1))))
 
 
 def case_memory(scene: dict) -> int:
-    """Peak memory one case adds to a run, bytes: ``WORKING_MEMORY_FACTOR ×
-    case_bytes(itemsize=8) + solver_bytes``."""
-    return WORKING_MEMORY_FACTOR * case_bytes(scene, itemsize=8) + solver_bytes(scene)
+    """Peak memory one case's outputs add to a run, bytes: ``WORKING_MEMORY_FACTOR ×
+    case_bytes(itemsize=8)`` (the solver's working arrays are bounded per part, see
+    :func:`run_memory`)."""
+    return WORKING_MEMORY_FACTOR * case_bytes(scene, itemsize=8)
 
 
 #: Scene keys that make a case large, with their defaults: the key that drives an estimate is
@@ -127,8 +149,13 @@ def _driver(scenes: list[dict]) -> str:
 
 def run_memory(scenes: list[dict]) -> tuple[int, str]:
     """Estimated peak memory of solving ``scenes`` together, bytes: ``BASE_MEMORY_BYTES + Σ
-    case_memory``; and the scene key that drives it (the one furthest above its default)."""
-    return BASE_MEMORY_BYTES + sum(case_memory(s) for s in scenes), _driver(scenes)
+    case_memory`` plus the largest part's solver arrays (:func:`cases_per_solve` cases of
+    :func:`solver_bytes`); and the scene key that drives it (the one furthest above its
+    default)."""
+    solver = max((solver_bytes(s) * min(cases_per_solve(s), len(scenes)) for s in scenes),
+                 default=0)
+    return (BASE_MEMORY_BYTES + sum(case_memory(s) for s in scenes) + solver,
+            _driver(scenes))
 
 
 def check_run_memory(scenes: list[dict], memory: int | None = None) -> int:

@@ -37,7 +37,7 @@ from ..problem.errors import SceneError, join, key_path, shown
 from ..problem.mechanism import assembly_error
 from ..problem.scene import load_scene
 from ..problem.yaml_files import check_structure, load_yaml
-from ..simulation.size import (BASE_MEMORY_BYTES, case_bytes, case_memory, machine_memory,
+from ..simulation.size import (case_bytes, machine_memory,
                                run_memory, size_text)
 from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
                     grid_points, grid_values, inner_points, material_names, scene_for)
@@ -224,8 +224,8 @@ class StudyEstimate:
         Cases of the largest chunk job (``chunk_size`` or the size of the largest family).
     chunk_memory_bytes : int
         Estimated peak memory of the largest chunk job:
-        ``BASE_MEMORY_BYTES + largest_chunk × case_memory`` (:mod:`ced.simulation.size`: the
-        same estimate ``ced run`` and ``ced.simulate`` apply before any work).
+        :func:`ced.simulation.size.run_memory` of its cases (the same estimate ``ced run`` and
+        ``ced.simulate`` apply before any work).
     """
 
     grid_points: int
@@ -324,12 +324,12 @@ def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyE
             sizes[family] = sizes.get(family, 0) + inner
             kinds[family] = kind
     output = sum(n * case_bytes(scenes[kinds[f]]) for f, n in sizes.items())
-    memory, largest = max((min(n, size) * case_memory(scenes[kinds[f]]), min(n, size))
+    memory, largest = max((run_memory([scenes[kinds[f]]] * min(n, size))[0], min(n, size))
                           for f, n in sizes.items())
     return StudyEstimate(
         grid_points=grid_points(config), cases=sum(sizes.values()),
         chunks={f: math.ceil(n / size) for f, n in sizes.items()}, output_bytes=output,
-        largest_chunk=largest, chunk_memory_bytes=BASE_MEMORY_BYTES + memory)
+        largest_chunk=largest, chunk_memory_bytes=memory)
 
 
 #: A linkage of each mechanism type that can be assembled, to size a case before the grid is
@@ -341,7 +341,7 @@ _STAND_IN = {"four_bar": {"ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker"
 def _upper_bounds(config: dict) -> str:
     """``; at most … output, … per chunk job`` from the grid points and the base scene, or
     ``""`` if the base scene is itself invalid (reported once the study is small enough)."""
-    output, per_case = 0, 0
+    output, memory = 0, 0
     inner = axis_length(config["speeds"]) * len(config["materials"]) * len(config["sections"])
     for kind, keys in GRID_KEYS.items():
         grid = config["grids"].get(kind)
@@ -355,9 +355,8 @@ def _upper_bounds(config: dict) -> str:
             return ""
         output += inner * math.prod(axis_length(grid.get(k, [0.0])) for k in keys) \
             * case_bytes(scene)
-        per_case = max(per_case, case_memory(scene))
-    chunk = min(config["chunk_size"], grid_points(config))
-    memory = BASE_MEMORY_BYTES + chunk * per_case
+        chunk = min(config["chunk_size"], grid_points(config))
+        memory = max(memory, run_memory([scene] * chunk)[0])
     return (f"; estimated output at most {size_text(output)} uncompressed, peak memory per chunk "
             f"job about {size_text(memory)}")
 

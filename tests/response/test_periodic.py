@@ -3,18 +3,28 @@ known stability."""
 import numpy as np
 
 from ced.response.integrators import newmark as average_acceleration
+from ced.response.marching import Marcher
+from ced.response.period_terms import PeriodTerms
 from ced.response.periodic import INSTABILITY_MARGIN, RESONANCE_GAP, shoot
 
 
-def _periodic_1dof(stiffness, force, period=2 * np.pi, steps=256, scheme=None):
+def one_dof_period(stiffness, force, h, steps):
+    """PeriodTerms of q̈ + k(t) q = f(t) at the steps of one period."""
+    t = np.arange(steps) * h
+    k = np.array([stiffness(x) for x in t], float)
+    f = np.array([force(x) for x in t], float)
+    return PeriodTerms(mass=np.ones((1, steps, 1, 1)), damping=None,
+                       stiffness=k[None, :, None, None], force=f[None, :, None],
+                       projection=np.zeros((1, steps, 1, 1)), samples=steps,
+                       interpolation_error=np.zeros(1))
+
+
+def _periodic_1dof(stiffness, force, period=2 * np.pi, steps=256, scheme=None, compiled=True):
     """Shoot a 1-DOF q̈ + k(t) q = f(t) with the solver's own shooting code."""
     h = np.array([period / steps])
-
-    def terms(k):
-        t = k * h[0]
-        return (np.ones((1, 1, 1)), None, np.full((1, 1, 1), stiffness(t)),
-                np.full((1, 1), force(t)))
-    return shoot(scheme or average_acceleration(), terms, h, steps, 1, 1)
+    scheme = scheme or average_acceleration()
+    terms = one_dof_period(stiffness, force, h[0], steps)
+    return shoot(scheme, Marcher(scheme, terms, h, compiled), h, steps, 1, 1)
 
 
 def test_mathieu_principal_tongue_is_parametrically_unstable():

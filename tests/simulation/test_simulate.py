@@ -60,3 +60,22 @@ def test_overflowing_input_fails_the_case_and_says_so():
     assert "an input overflows" in str(ds.message.values[1])
     assert "stress" in str(ds.message.values[1])
     finite_unless_failed(ds)
+
+
+def test_a_batch_solved_in_parts_equals_one_batch(monkeypatch):
+    # A batch beyond cases_per_solve is solved in parts: the same results, in the same order,
+    # and a failing case is isolated within its part.
+    import ced.simulation.simulate as sim
+    scenes = [{**BASE, "drive": {"speed": s}, "time": {"revolutions": 1,
+                                                       "steps_per_revolution": 256}}
+              for s in (60.0, 80.0, 100.0, 120.0, 140.0)]
+    whole = simulate(scenes)
+    monkeypatch.setattr(sim, "cases_per_solve", lambda scene: 2)
+    parts = simulate(scenes)
+    for name in ("stress", "joint_force", "peak_stress", "status"):
+        assert np.array_equal(parts[name].values, whole[name].values), name
+    from ced.problem.scene import load_scene
+    from ced.response.batch import make_batch
+    batch = make_batch([load_scene(s) for s in scenes])
+    out = sim.solve_batch(batch)
+    assert np.array_equal(out["peak_stress"], whole.peak_stress.values)

@@ -76,3 +76,16 @@ def test_case_bytes_is_the_size_of_a_chunk_dataset(family):
     ds = simulate([r["scene"] for r in rows])
     per_case = sum(v.nbytes for v in ds.variables.values() if "case" in v.dims) / len(rows)
     assert case_bytes(load_scene(rows[0]["scene"])) == pytest.approx(per_case, rel=0.1)
+
+
+def test_solver_arrays_are_bounded_per_part_not_per_run():
+    # The solver's working arrays count once, for the largest part; outputs count per case.
+    from ced.simulation.size import cases_per_solve, case_memory, solver_bytes
+    scene = load_scene({"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1,
+                                      "coupler": 0.45, "rocker": 0.35},
+                        "time": {"steps_per_revolution": 1024}})
+    part = cases_per_solve(scene)
+    assert 1 <= part <= 256 and part * solver_bytes(scene) <= 256 * 2**20
+    small, _ = run_memory([scene] * part)
+    large, _ = run_memory([scene] * (10 * part))
+    assert large - small == 9 * part * case_memory(scene)

@@ -1,0 +1,101 @@
+"""ced on the 100-speed sweep of the reference flexible four-bar, at equal accuracy.
+
+The problem (shared with the peer, ``benchmarks/peer/``): ground 0.5, crank 0.1, coupler
+0.45, rocker 0.35 m; steel; rectangle 10 mm × 5 mm (5 mm in-plane); rigid crank and rocker,
+flexible coupler; no gravity, no damping; two revolutions from the undeformed state at
+Ω = 90 … 110 rad/s (100 speeds). The measure is the peak coupler strain: the largest
+|outer-fibre bending strain| over time and the coupler's 21 stations.
+
+:func:`cheapest` finds ced's cheapest setting whose peak strain is within 1 % of ced's own
+converged value (16 elements, 8192 steps per revolution, all FE DOFs) at **every** speed,
+timing each candidate as one batch of the 100 cases (one core, best of ``repeat``).
+:func:`batch_scaling` times that setting in batches of 100 to 10,000 cases.
+"""
+from __future__ import annotations
+
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from ced.problem.scene import load_scene  # noqa: E402
+from ced.response.batch import make_batch  # noqa: E402
+from ced.simulation.simulate import solve_batch  # noqa: E402
+
+SPEEDS = np.linspace(90.0, 110.0, 100)
+REFERENCE_SCENE = {
+    "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                  "rocker": 0.35},
+    "links": {"default": {"material": "steel",
+                          "section": {"shape": "rectangle", "height": 0.005, "width": 0.01}},
+              "crank": {"flexible": False}, "rocker": {"flexible": False}},
+    "outputs": {"stations": 21, "error_estimate": False},
+}
+#: ced's converged setting: (elements, modes per link (0: every FE DOF), steps/rev).
+CONVERGED = (16, 0, 8192)
+#: Candidate settings, searched for the cheapest within 1 % at every speed.
+CANDIDATES = [(elements, modes, steps)
+              for elements, modes in ((4, 0), (8, 0), (8, 2), (8, 4), (6, 3))
+              for steps in (512, 768, 1024, 1280, 1536, 2048)]
+TOLERANCE = 0.01
+
+
+def scene(speed: float, elements: int, modes: int, steps: int, every: int = 1) -> dict:
+    return load_scene({**REFERENCE_SCENE, "drive": {"speed": float(speed)},
+                       "outputs": {**REFERENCE_SCENE["outputs"], "every": every},
+                       "discretization": {"elements_per_link": elements,
+                                          "modes_per_link": modes},
+                       "time": {"revolutions": 2, "steps_per_revolution": steps,
+                                "start": "undeformed"}})
+
+
+def peak_strain(setting: tuple[int, int, int], speeds=SPEEDS, repeat: int = 1):
+    """Peak coupler strain per speed and the best wall time per case (s) of one batch."""
+    scenes = [scene(s, *setting) for s in speeds]
+    best, out = np.inf, None
+    for _ in range(repeat):
+        batch = make_batch(scenes)
+        t0 = time.perf_counter()
+        out = solve_batch(batch)
+        best = min(best, time.perf_counter() - t0)
+    strain = np.abs(out["bending_strain"][:, :, 1]).max(axis=(1, 2)).astype(float)
+    return strain, best / len(speeds)
+
+
+def cheapest(reference: np.ndarray, repeat: int = 2, log=print) -> dict:
+    """Every candidate's errors and time; the cheapest within :data:`TOLERANCE` everywhere."""
+    rows = []
+    for setting in CANDIDATES:
+        strain, seconds = peak_strain(setting, repeat=repeat)
+        error = np.abs(strain / reference - 1.0)
+        row = {"elements_per_link": setting[0], "modes_per_link": setting[1],
+               "steps_per_revolution": setting[2], "seconds_per_case": seconds,
+               "max_error": float(error.max()), "p95_error": float(np.percentile(error, 95))}
+        rows.append(row)
+        log(f"ced {setting}: {1e3 * seconds:8.2f} ms/case, error max {row['max_error']:.2%} "
+            f"p95 {row['p95_error']:.2%}")
+    passing = [r for r in rows if r["max_error"] <= TOLERANCE]
+    best = min(passing, key=lambda r: r["seconds_per_case"]) if passing else None
+    return {"candidates": rows, "cheapest": best}
+
+
+def batch_scaling(setting: tuple[int, int, int], sizes=(100, 1000, 10000), every: int = 64,
+                  log=print) -> list[dict]:
+    """Wall time per case of ``setting`` in batches of ``sizes`` cases (speeds spread over the
+    sweep). Output every ``every`` steps so that 10,000 cases' histories fit in memory: the
+    solve is the same, the recorded history thinner."""
+    rows = []
+    for size in sizes:
+        speeds = np.linspace(90.0, 110.0, size)
+        scenes = [scene(s, *setting, every=every) for s in speeds]
+        batch = make_batch(scenes)
+        t0 = time.perf_counter()
+        solve_batch(batch)
+        seconds = (time.perf_counter() - t0) / size
+        rows.append({"batch": size, "seconds_per_case": seconds})
+        log(f"ced {setting} batch {size}: {1e3 * seconds:.2f} ms/case")
+    return rows

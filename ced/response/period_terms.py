@@ -1,0 +1,212 @@
+"""The KED system over one period of the step grid, from a few samples of it.
+
+The system M, C, K, F (and the projection P that maps it back to the links) depends on time
+only through the rigid motion, which repeats every input period T: the terms of step k are
+those of step k mod P, P the steps per period. Evaluating them
+(:func:`ced.response.model.terms_at`: rigid motion, inverse dynamics, projection and the
+effects' sandwich products) costs ~25 µs per step and case in numpy, more than the step's
+solve; but they vary with the mechanism's motion, smoothly and slowly against the step
+(the step resolves the links' vibration, the terms change on the scale of the crank
+harmonics). So they are evaluated at ``samples`` equally spaced phases of the period and
+interpolated to every step by a 6-point periodic Lagrange stencil (degree 5, error
+O((2πk/samples)⁶) on the k-th crank harmonic).
+
+The interpolation error is checked, not assumed. The samples' even half interpolates the odd
+half; that error, divided by 2⁶ / 4 = 16 (the stencil's order, with a safety factor 4), is the
+estimated error of the full set, relative to each term's largest entry in the case. The samples
+double until it is below :data:`TOLERANCE` for every case, and the terms are evaluated at every
+step (exact) once the samples would reach the steps per period. The check only sees the
+samples, so motions with features narrower than their spacing — near a toggle or a change
+point, flagged ``near_singular`` — are evaluated exactly at every step (the caller says so).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from .model import Model, terms_at
+
+__all__ = ["PeriodTerms", "period_terms", "interpolation_weights", "SAMPLES", "TOLERANCE",
+           "STENCIL"]
+
+#: Samples per period to start from (doubled until the interpolation error is small enough).
+SAMPLES = 64
+#: Estimated interpolation error allowed, relative to each term's largest entry: far below any
+#: discretization error ced reports (≥ 1e-6), so that sampling never shows in a result.
+TOLERANCE = 1e-7
+#: Points of the Lagrange stencil (nodes −2 … 3 around the interval holding the step).
+STENCIL = 10
+_NODES = np.arange(STENCIL) - (STENCIL // 2 - 1)
+#: Estimated full-set error = half-set error / this: the stencil's 2⁶ with a safety factor 4.
+_HALVING_GAIN = 2.0 ** STENCIL / 4.0
+
+
+@dataclass
+class PeriodTerms:
+    """M, C, K, F and the projection at every step of one period (case, P, …).
+
+    ``mass`` or ``damping`` is None where the effects do not form it. Step k uses index
+    k mod P. ``samples`` is the number of terms evaluations per period (P when exact) and
+    ``interpolation_error`` the estimate per case (0 when exact).
+    """
+
+    mass: np.ndarray | None
+    damping: np.ndarray | None
+    stiffness: np.ndarray
+    force: np.ndarray
+    projection: np.ndarray
+    samples: int
+    interpolation_error: np.ndarray
+
+    @property
+    def period(self) -> int:
+        return self.stiffness.shape[1]
+
+    def __call__(self, k: int):
+        """(M, C, K, F) at step k (F (case, n)), the ``terms`` of
+        :func:`ced.response.integrators.march` through
+        :func:`ced.response.integrators.forced_columns`."""
+        j = k % self.period
+        M = None if self.mass is None else self.mass[:, j]
+        C = None if self.damping is None else self.damping[:, j]
+        return M, C, self.stiffness[:, j], self.force[:, j]
+
+
+def interpolation_weights(points: np.ndarray, samples: int):
+    """Periodic 6-point Lagrange stencil at ``points`` in sample units (phase × samples / 2π).
+
+    Returns (index (m, 6) int, weight (m, 6)): the value at a point is
+    Σ_j weight[:, j] × value[index[:, j]].
+    """
+    points = np.asarray(points, float)
+    base = np.floor(points)
+    f = points - base
+    index = (base.astype(np.int64)[:, None] + _NODES[None, :]) % samples
+    weight = np.ones((len(points), STENCIL))
+    for i, xi in enumerate(_NODES):
+        for xj in _NODES:
+            if xj != xi:
+                weight[:, i] *= (f - xj) / (xi - xj)
+    return index, weight
+
+
+@nb.njit(cache=True, nogil=True)
+def _interpolate(values, index, weight, out):
+    """out[c, m] = Σ_j weight[m, j] values[c, index[m, j]]; values (case, samples, D)."""
+    ncase, D = values.shape[0], values.shape[2]
+    for c in range(ncase):
+        for m in range(index.shape[0]):
+            for d in range(D):
+                out[c, m, d] = 0.0
+            for j in range(index.shape[1]):
+                wj = weight[m, j]
+                src = index[m, j]
+                for d in range(D):
+                    out[c, m, d] += wj * values[c, src, d]
+
+
+class _Blocks:
+    """The terms of one evaluation flattened to (case, time, D) and back."""
+
+    def __init__(self, terms, P):
+        self.names = [name for name in ("mass", "damping", "stiffness", "force")
+                      if getattr(terms, name) is not None] + ["projection"]
+        arrays = [getattr(terms, name) for name in self.names[:-1]] + [P]
+        self.shapes = [a.shape[2:] for a in arrays]
+        sizes = [int(np.prod(s)) for s in self.shapes]
+        self.bounds = np.cumsum([0] + sizes)
+
+    def flatten(self, terms, P) -> np.ndarray:
+        arrays = [getattr(terms, name) for name in self.names[:-1]] + [P]
+        return np.concatenate([a.reshape(a.shape[:2] + (-1,)) for a in arrays], axis=-1)
+
+    def split(self, flat: np.ndarray) -> dict[str, np.ndarray]:
+        """Each term as its own C-contiguous array (case, time, …): the compiled march
+        reads them matrix by matrix."""
+        return {name: np.ascontiguousarray(flat[..., lo:hi]).reshape(flat.shape[:2] + shape)
+                for name, lo, hi, shape in zip(self.names, self.bounds[:-1], self.bounds[1:],
+                                               self.shapes)}
+
+    def interpolate(self, values: np.ndarray, period: int) -> dict[str, np.ndarray]:
+        """Each term at every step of the period from ``values`` at equally spaced samples
+        (case, samples, D), into its own C-contiguous array."""
+        ncase, n = values.shape[:2]
+        index, weight = interpolation_weights(np.arange(period) * (n / period), n)
+        out = {}
+        for name, lo, hi, shape in zip(self.names, self.bounds[:-1], self.bounds[1:],
+                                       self.shapes):
+            flat = np.empty((ncase, period, hi - lo))
+            _interpolate(np.ascontiguousarray(values[..., lo:hi]), index, weight, flat)
+            out[name] = flat.reshape((ncase, period) + shape)
+        return out
+
+    def error(self, approx: np.ndarray, exact: np.ndarray) -> np.ndarray:
+        """(case,) largest block-wise error relative to the block's largest entry."""
+        worst = np.zeros(exact.shape[0])
+        for lo, hi in zip(self.bounds[:-1], self.bounds[1:]):
+            scale = np.abs(exact[..., lo:hi]).max(axis=(1, 2))
+            err = np.abs(approx[..., lo:hi] - exact[..., lo:hi]).max(axis=(1, 2))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rel = np.where(scale > 0, err / scale, 0.0)
+            worst = np.maximum(worst, np.where(np.isfinite(rel), rel, np.inf))
+        return worst
+
+
+#: Bytes of terms evaluated at once (the effects' temporaries are a few times this).
+_CHUNK_BYTES = 50e6
+
+
+def _evaluate(model: Model, h: np.ndarray, phases: np.ndarray) -> tuple["_Blocks", np.ndarray]:
+    """Terms at ``phases`` (in steps, fractional allowed) of every case, flattened
+    (case, phase, D), evaluated in chunks of phases."""
+    layout = model.layout
+    per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
+    chunk = int(max(4, _CHUNK_BYTES // max(per_phase, 1)))
+    blocks, out = None, None
+    for start in range(0, len(phases), chunk):
+        part = phases[start:start + chunk]
+        terms, P = terms_at(model, h[:, None] * part[None, :])
+        if blocks is None:
+            blocks = _Blocks(terms, P)
+            out = np.empty((model.batch.size, len(phases), blocks.bounds[-1]))
+        out[:, start:start + len(part)] = blocks.flatten(terms, P)
+    return blocks, out
+
+
+def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLES,
+                 tolerance: float = TOLERANCE, exact: bool = False) -> PeriodTerms:
+    """The system at every step of one period (``period`` steps of ``h`` s per case).
+
+    Sampled and interpolated where that is accurate to ``tolerance`` (module docstring),
+    evaluated at every step otherwise, or when ``exact``: the check sees the samples only, so a
+    motion with features narrower than their spacing (a case ``near_singular``) must ask for it.
+    """
+    ncase = model.batch.size
+    n = samples
+    if not exact and 2 * n <= period:
+        blocks, values = _evaluate(model, h, np.arange(n) * (period / n))
+        while True:
+            # Interpolate the odd samples from the even ones: the half set's error.
+            index, weight = interpolation_weights(np.arange(n // 2) + 0.5, n // 2)
+            approx = np.empty_like(values[:, 1::2])
+            _interpolate(np.ascontiguousarray(values[:, 0::2]), index, weight, approx)
+            estimate = blocks.error(approx, values[:, 1::2]) / _HALVING_GAIN
+            if (estimate <= tolerance).all():
+                return PeriodTerms(**_with_none(blocks.interpolate(values, period)),
+                                   samples=n, interpolation_error=estimate)
+            if 4 * n > period:
+                break  # as many samples as steps: evaluate every step
+            _, middle = _evaluate(model, h, (np.arange(n) + 0.5) * (period / n))
+            merged = np.empty((ncase, 2 * n, values.shape[-1]))
+            merged[:, 0::2], merged[:, 1::2] = values, middle
+            values, n = merged, 2 * n
+    blocks, values = _evaluate(model, h, np.arange(period, dtype=float))
+    return PeriodTerms(**_with_none(blocks.split(values)), samples=period,
+                       interpolation_error=np.zeros(ncase))
+
+
+def _with_none(parts: dict[str, np.ndarray]) -> dict:
+    return {name: parts.get(name) for name in ("mass", "damping", "stiffness", "force",
+                                                "projection")}

@@ -1,0 +1,74 @@
+"""Terms over one period from samples (ced.response.period_terms): exact where it must be,
+accurate to its tolerance where it interpolates, and honest about its error."""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ced.problem.scene import load_scene
+from ced.response.batch import make_batch
+from ced.response.model import build_model
+from ced.response.period_terms import (STENCIL, TOLERANCE, interpolation_weights,
+                                       period_terms)
+
+FOUR_BAR = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                          "rocker": 0.35},
+            "links": {"crank": {"flexible": False}, "rocker": {"flexible": False}},
+            "effects": ["inertia", "elastic_inertia", "gravity", "coriolis", "centrifugal",
+                        "axial_stiffening", "damping"],
+            "damping": {"model": "rayleigh", "alpha": 1.0, "beta": 1e-5},
+            "discretization": {"elements_per_link": 4}}
+
+
+@settings(max_examples=30, deadline=None)
+@given(degree=st.integers(0, STENCIL - 1), shift=st.floats(0, 1))
+def test_stencil_is_exact_on_polynomials_of_its_degree(degree, shift):
+    # Away from the periodic wrap a polynomial of degree ≤ 5 is reproduced to round-off.
+    samples = 64
+    x = np.arange(samples, dtype=float)
+    points = 20.0 + shift + np.arange(10)
+    index, weight = interpolation_weights(points, samples)
+    values = (x / samples) ** degree
+    assert np.allclose((weight * values[index]).sum(axis=1), (points / samples) ** degree,
+                       atol=1e-13)
+
+
+def test_stencil_converges_at_its_order_on_a_harmonic():
+    # Degree-5 interpolation of a harmonic: error ∝ (2πk/samples)⁶.
+    errors = []
+    for samples in (32, 64, 128):
+        points = np.linspace(0, samples, 997, endpoint=False)
+        index, weight = interpolation_weights(points, samples)
+        values = np.cos(2 * np.pi * 3 * np.arange(samples) / samples)
+        exact = np.cos(2 * np.pi * 3 * points / samples)
+        errors.append(np.abs((weight * values[index]).sum(axis=1) - exact).max())
+    rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(rates - STENCIL) < 0.3)
+
+
+@pytest.mark.parametrize("steps", [512, 1280])
+def test_sampled_terms_match_exact_terms_within_their_estimate(steps):
+    scenes = [load_scene({**FOUR_BAR, "drive": {"speed": speed},
+                          "time": {"steps_per_revolution": steps}})
+              for speed in (50.0, 150.0)]
+    batch = make_batch(scenes)
+    model = build_model(batch)
+    sampled = period_terms(model, batch.step_size, steps)
+    exact = period_terms(model, batch.step_size, steps, exact=True)
+    assert sampled.samples < steps and exact.samples == steps
+    assert np.all(sampled.interpolation_error <= TOLERANCE)
+    for name in ("mass", "damping", "stiffness", "force", "projection"):
+        a, b = getattr(sampled, name), getattr(exact, name)
+        axes = tuple(range(1, b.ndim))
+        error = np.abs(a - b).max(axis=axes) / np.abs(b).max(axis=axes)
+        # The estimate bounds the true error (it carries a safety factor of 4).
+        assert np.all(error <= sampled.interpolation_error), name
+    # Step k of a later period is step k mod P.
+    for got, want in zip(exact(steps + 5), exact(5)):
+        assert np.array_equal(got, want)
+
+
+def test_short_periods_are_evaluated_exactly():
+    batch = make_batch([load_scene({**FOUR_BAR, "time": {"steps_per_revolution": 100}})])
+    terms = period_terms(build_model(batch), batch.step_size, 100)
+    assert terms.samples == 100 and not terms.interpolation_error.any()
