@@ -7,7 +7,7 @@
 #
 # The profiles set replace-workflow-config: a --configfile study replaces config/config.yaml
 # instead of being merged into it (Snakemake merges nested keys by default).
-from ced.study.cases import case_config, modal_requested
+from ced.study.cases import case_config, estimate_requested, modal_requested
 from ced.study.config import check_config
 
 
@@ -20,6 +20,7 @@ CHUNKS = check_config(config)
 STUDY = config["study"]
 FAMILIES = sorted(CHUNKS)
 CAMPBELL = modal_requested(config)
+ESTIMATED = estimate_requested(config)
 # Convergence study (config key `convergence`, ced.study.convergence): one job per family of its sweep;
 # none, and no report section, without the key.
 CONVERGENCE = None
@@ -57,6 +58,11 @@ rule all:
         expand("results/{study}/maps/{family}_grid.nc", study=STUDY, family=FAMILIES),
         expand(
             "results/{study}/figures/overview.{ext}", study=STUDY, ext=("png", "svg")
+        ),
+        expand(
+            "results/{study}/figures/error_estimate.{ext}",
+            study=STUDY if ESTIMATED else [],
+            ext=("png", "svg"),
         ),
         expand("results/{study}/ladder/ladder.md", study=STUDY),
         expand(

@@ -1,148 +1,151 @@
-"""Cases per second of the KED solver on the reference four-bar (issue: batches and speed).
+"""ced against the peer (Exudyn) at equal accuracy, batch scaling, and what accuracy costs.
 
-Reference four-bar: ground 0.5, crank 0.1, coupler 0.45, rocker 0.35 m; steel; rectangle
-10 mm × 5 mm with 5 mm in-plane; rigid crank and rocker, flexible coupler; 100 rad/s;
-2 revolutions, from ``undeformed`` and with the ``periodic`` start. Discretization for 1 %
-error in peak coupler bending strain, measured by :func:`accuracy` against a 16-element,
-4096-steps-per-revolution full FE solution: 8 elements, 128 steps per revolution — all FE DOFs
-(``full``), and reduced to 4 fixed-interface modes plus static load vectors per flexible link
-(``reduced``, :mod:`ced.fem.component_modes`).
+Run ``python benchmarks/run.py`` (``make bench``); results go to ``benchmarks/results.json``
+and are printed as they come. One process, one BLAS thread: this measures one core.
 
-Run ``python benchmarks/run.py`` (``make bench``); results go to benchmarks/results.json and
-are printed as a table. Single process, one BLAS thread: this measures one core.
+1. **Sweep at equal accuracy** (:mod:`sweep`): the reference flexible four-bar at 100 speeds,
+   Ω = 90 … 110 rad/s, two revolutions from the undeformed state. ced's converged value
+   (16 elements, 8192 steps per revolution) at every speed, then every candidate setting
+   timed as one batch of the 100 cases; the cheapest whose peak coupler strain is within 1 %
+   of the converged value at every speed is ced's setting.
+2. **The peer in the same run** (``benchmarks/peer/``): Exudyn, installed from PyPI into its
+   own venv by the benchmark, at its cheapest 1 %-setting — found by
+   ``benchmarks/peer/compare.py`` against the peer's own converged value, stored in
+   ``benchmarks/peer_results.json`` — re-run here over the 100 speeds, its accuracy
+   re-checked against its stored converged peaks and its solver time measured beside ced's.
+   ``--peer-search`` redoes the peer's whole search (about 30 min).
+3. **Batch scaling**: ced's setting in batches of 100, 1,000 and 10,000 cases.
+4. **Error estimate and ``discretization: auto``** on the sweep: the estimate's cost against
+   the solve it estimates; ``tolerance: 1e-2`` with ``discretization: auto`` — its time per
+   case and its true error at every speed against the converged value.
 """
 from __future__ import annotations
 
+import argparse
 import json
-import os
 import platform
 import sys
 import time
 from pathlib import Path
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MKL_NUM_THREADS", "1")
+import numpy as np
 
-import numpy as np  # noqa: E402
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE / "peer"))
 
-from ced.response.batch import make_batch  # noqa: E402
-from ced.problem.scene import load_scene  # noqa: E402
-from ced.simulation.simulate import simulate, solve_batch  # noqa: E402
+import sweep  # noqa: E402
 
-REFERENCE = {
-    "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
-                  "rocker": 0.35},
-    "links": {"default": {"material": "steel",
-                          "section": {"shape": "rectangle", "height": 0.005, "width": 0.01}},
-              "crank": {"flexible": False}, "rocker": {"flexible": False}},
-    "drive": {"speed": 100.0},
-    "outputs": {"stations": 21},
-}
-ELEMENTS, STEPS = 8, 128
-MODELS = {"full": 0, "reduced": 4}  # modes_per_link
-BATCHES = (1, 10, 100, 1000)
+from ced.simulation.simulate import simulate  # noqa: E402
+
+RESULTS = HERE / "results.json"
+PEER_RESULTS = HERE / "peer_results.json"
 
 
-def scene(start: str, elements: int = ELEMENTS, steps: int = STEPS, speed: float = 100.0,
-          modes: int = 0):
-    return load_scene({**REFERENCE, "drive": {"speed": speed},
-                       "discretization": {"elements_per_link": elements,
-                                          "modes_per_link": modes},
-                       "time": {"revolutions": 2, "steps_per_revolution": steps,
-                                "start": start}})
+def log(msg: str) -> None:
+    print(f"[{time.strftime('%H:%M:%S')}] {msg}", flush=True)
 
 
-def peak_strain(s: dict) -> float:
-    out = solve_batch(make_batch([s]))
-    return float(np.abs(out["bending_strain"][0, :, 1]).max())
+def peer_at_chosen(search: bool) -> dict:
+    """The peer's cheapest setting re-run over the sweep: accuracy against its converged peaks,
+    solver time per case. ``search`` redoes the peer's search first."""
+    import compare  # benchmarks/peer/compare.py (installs the peer on first use)
+    version = compare.setup_peer()
+    if search:
+        compare.main([])
+    stored = json.loads(PEER_RESULTS.read_text())
+    elements, steps = stored["chosen"]["elements"], stored["chosen"]["steps_per_revolution"]
+    reference = np.array(stored["reference"]["peak_strain"])
+    run = compare.peer_sweep(sweep.SPEEDS, elements, steps, cached=False)
+    peaks, seconds = compare._peaks(run), compare._seconds(run)
+    error = np.abs(peaks / reference - 1.0)
+    return {"exudyn": version, "elements": elements, "steps_per_revolution": steps,
+            "reference": [stored["reference"]["elements"],
+                          stored["reference"]["steps_per_revolution"]],
+            "max_error": float(error.max()), "p95_error": float(np.percentile(error, 95)),
+            "seconds_per_case": float(seconds.mean())}
 
 
-def accuracy(start: str, modes: int) -> float:
-    """Relative error of peak coupler bending strain at the benchmark discretization."""
-    reference = peak_strain(scene(start, 16, 4096))
-    return abs(peak_strain(scene(start, modes=modes)) / reference - 1)
-
-
-def throughput(start: str, size: int, repeat: int, modes: int) -> float:
-    """Cases per second for a batch of ``size`` cases (slightly different speeds, so that no
-    two cases are identical), best of ``repeat`` runs."""
-    scenes = [scene(start, speed=100.0 + 1e-3 * i, modes=modes) for i in range(size)]
-    batch = make_batch(scenes)
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        solve_batch(batch)
-        best = min(best, time.perf_counter() - t0)
-    return size / best
-
-
-def estimate_overhead(steps: int, size: int = 100) -> dict:
-    """Wall time of ``simulate`` with and without ``error_estimate``, reduced model, periodic
-    start, one batch of ``size`` cases (one run each, measured in the same process)."""
-    scenes = [{**REFERENCE, "drive": {"speed": 100.0 + 1e-3 * i},
-               "discretization": {"elements_per_link": ELEMENTS, "modes_per_link": 4},
-               "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "periodic"},
-               "modal": {"modes": 1, "angles": 12}} for i in range(size)]
+def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
+    """Wall time per case of ``simulate`` on the sweep with and without ``error_estimate`` at
+    ``setting``, measured in this process one after the other."""
+    elements, modes, steps = setting
     times = {}
     for flag in (False, True):
-        batch = [{**s, "outputs": {**s["outputs"], "error_estimate": flag}} for s in scenes]
+        scenes = [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)},
+                   "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": flag},
+                   "discretization": {"elements_per_link": elements, "modes_per_link": modes},
+                   "time": {"revolutions": 2, "steps_per_revolution": steps,
+                            "start": "undeformed"}}
+                  for s in np.linspace(90.0, 110.0, size)]
         t0 = time.perf_counter()
-        simulate(batch)
-        times[flag] = time.perf_counter() - t0
-    return {"steps_per_revolution": steps, "batch": size,
-            "ms_per_case_without": 1e3 * times[False] / size,
-            "ms_per_case_with": 1e3 * times[True] / size,
-            "overhead": times[True] / times[False] - 1.0}
+        simulate(scenes)
+        times[flag] = (time.perf_counter() - t0) / size
+    return {"setting": list(setting), "seconds_per_case_without": times[False],
+            "seconds_per_case_with": times[True], "overhead": times[True] / times[False] - 1.0}
 
 
-def auto_cost(tolerance: float, size: int = 100) -> dict:
-    """Wall time per case of ``discretization: auto`` (pilots included) and the choice."""
-    scenes = [{**REFERENCE, "drive": {"speed": 100.0 + 1e-3 * i}, "discretization": "auto",
-               "tolerance": tolerance, "outputs": {**REFERENCE["outputs"],
-                                                   "error_estimate": False},
-               "time": {"revolutions": 2, "start": "periodic"}} for i in range(size)]
+def auto_at(tolerance: float, reference: np.ndarray) -> dict:
+    """``discretization: auto`` with ``tolerance`` over the sweep: time per case (pilots
+    included), the settings chosen and the true error of peak coupler strain at every speed."""
+    scenes = [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)}, "tolerance": tolerance,
+               "discretization": "auto",
+               "time": {"revolutions": 2, "start": "undeformed"}} for s in sweep.SPEEDS]
     t0 = time.perf_counter()
     ds = simulate(scenes)
-    elapsed = time.perf_counter() - t0
-    choice = json.loads(str(ds.discretization_auto.values[0]))
-    # The chosen setting's own solve; the rest of the wall time is the ladders' pilots.
-    solve = float(ds.solve_time.mean())
-    return {"tolerance": tolerance, "batch": size, "ms_per_case": 1e3 * elapsed / size,
-            "solve_ms_per_case": 1e3 * solve, "pilot_share": 1.0 - solve * size / elapsed,
-            "elements_per_link": choice["elements_per_link"],
-            "steps_per_revolution": choice["steps_per_revolution"],
-            "predicted_error": choice["predicted_error"]}
+    seconds = (time.perf_counter() - t0) / len(scenes)
+    strain = np.abs(ds.bending_strain.sel(link="coupler")).max(("step", "station")).values
+    error = np.abs(strain / reference - 1.0)
+    choices = sorted({(c["elements_per_link"], c["steps_per_revolution"])
+                      for c in map(json.loads, ds.discretization_auto.values)})
+    return {"tolerance": tolerance, "seconds_per_case": seconds,
+            "max_error": float(error.max()), "p95_error": float(np.percentile(error, 95)),
+            "settings_chosen": [list(c) for c in choices]}
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--peer-search", action="store_true",
+                        help="redo the peer's search for its cheapest setting (~30 min)")
+    parser.add_argument("--no-peer", action="store_true", help="skip the peer")
+    args = parser.parse_args(argv)
     results = {"machine": platform.machine(), "python": sys.version.split()[0],
-               "numpy": np.__version__, "elements": ELEMENTS, "steps_per_revolution": STEPS,
-               "revolutions": 2, "runs": []}
-    for model, modes in MODELS.items():
-        for start in ("undeformed", "periodic"):
-            error = accuracy(start, modes)
-            for size in BATCHES:
-                rate = throughput(start, size, 3 if size <= 100 else 1, modes)
-                results["runs"].append({"model": model, "modes_per_link": modes,
-                                        "start": start, "batch": size,
-                                        "cases_per_second": rate, "peak_strain_error": error})
-                print(f"{model:8s} {start:11s} batch {size:5d}: {rate:8.1f} cases/s "
-                      f"({1e3 / rate:7.2f} ms/case), peak strain error {error:.2%}", flush=True)
-    results["error_estimate"] = [estimate_overhead(steps) for steps in (64, 128, 256)]
-    for row in results["error_estimate"]:
-        print(f"error_estimate, {row['steps_per_revolution']} steps/rev: "
-              f"{row['ms_per_case_without']:.2f} → {row['ms_per_case_with']:.2f} ms/case "
-              f"(+{row['overhead']:.0%})", flush=True)
-    results["discretization_auto"] = [auto_cost(t) for t in (1e-2, 1e-3, 1e-4)]
-    for row in results["discretization_auto"]:
-        print(f"discretization auto, tolerance {row['tolerance']:g}: {row['ms_per_case']:.2f} "
-              f"ms/case with pilots, {row['solve_ms_per_case']:.2f} without "
-              f"({row['elements_per_link']} el, {row['steps_per_revolution']} steps/rev)",
-              flush=True)
-    out = Path(__file__).with_name("results.json")
-    out.write_text(json.dumps(results, indent=2) + "\n")
-    print(f"wrote {out}")
+               "numpy": np.__version__, "started": time.strftime("%Y-%m-%dT%H:%M:%SZ",
+                                                                 time.gmtime()),
+               "problem": "reference flexible four-bar, 100 speeds 90-110 rad/s, 2 revolutions "
+                          "from undeformed, peak coupler strain within 1 % of each code's own "
+                          "converged value at every speed"}
+    log(f"ced converged value {sweep.CONVERGED} at {len(sweep.SPEEDS)} speeds")
+    reference, seconds = sweep.peak_strain(sweep.CONVERGED)
+    results["ced_reference"] = {"setting": list(sweep.CONVERGED), "seconds_per_case": seconds,
+                                "peak_strain": reference.tolist()}
+    search = sweep.cheapest(reference, log=log)
+    results["ced"] = search
+    best = search["cheapest"]
+    if best is None:
+        raise SystemExit("no ced candidate is within 1 % at every speed")
+    setting = (best["elements_per_link"], best["modes_per_link"], best["steps_per_revolution"])
+    log(f"ced cheapest: {setting}, {1e3 * best['seconds_per_case']:.2f} ms/case")
+    if not args.no_peer:
+        peer = peer_at_chosen(args.peer_search)
+        # ced's setting timed again right after the peer: both in the same conditions.
+        _, ced_seconds = sweep.peak_strain(setting, repeat=2)
+        peer["ced_seconds_per_case"] = ced_seconds
+        peer["speedup"] = peer["seconds_per_case"] / ced_seconds
+        results["peer"] = peer
+        log(f"peer (Exudyn {peer['exudyn']}) {peer['elements']} elements × "
+            f"{peer['steps_per_revolution']} steps/rev: {1e3 * peer['seconds_per_case']:.1f} "
+            f"ms/case (max error {peer['max_error']:.2%}); ced {1e3 * ced_seconds:.2f} ms/case: "
+            f"{peer['speedup']:.1f}× faster")
+    results["batch_scaling"] = sweep.batch_scaling(setting, log=log)
+    results["error_estimate"] = estimate_cost(setting)
+    log(f"error_estimate at {setting}: +{results['error_estimate']['overhead']:.0%}")
+    results["discretization_auto"] = auto_at(1e-2, reference)
+    row = results["discretization_auto"]
+    log(f"discretization auto, tolerance 1e-2: {1e3 * row['seconds_per_case']:.1f} ms/case, "
+        f"max error {row['max_error']:.2%}, settings {row['settings_chosen']}")
+    RESULTS.write_text(json.dumps(results, indent=2) + "\n")
+    log(f"wrote {RESULTS}")
 
 
 if __name__ == "__main__":

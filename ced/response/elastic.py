@@ -67,7 +67,7 @@ def elastic_response(batch: Batch, status: np.ndarray,
     status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
-    qz, qz_static = _response(model, status, result, static=not peaks_only)
+    qz, qz_static = _response(model, status, result, full=not peaks_only)
     result.update(_recover(model, qz, qz_static, fields=not peaks_only))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
@@ -87,10 +87,11 @@ def elastic_response(batch: Batch, status: np.ndarray,
     return result
 
 
-def _response(model: Model, status: np.ndarray, result: dict, static: bool = True):
+def _response(model: Model, status: np.ndarray, result: dict, full: bool = True):
     """Joint and link displacements z at the output steps, dynamic and quasi-static
-    (case, out_step, nz; the quasi-static one None unless ``static`` or the model is
-    quasi-static); adds the Floquet results of a periodic start to ``result``.
+    (case, out_step, nz); adds the Floquet results of a periodic start to ``result``.
+    Without ``full``, neither the quasi-static response (None, unless the model is
+    quasi-static) nor the Floquet analysis.
 
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
@@ -110,7 +111,7 @@ def _response(model: Model, status: np.ndarray, result: dict, static: bool = Tru
     period = period_terms(model, h, time_cfg["steps_per_revolution"], exact=sharp)
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     qz_static = None
-    if static or quasi_static:
+    if full or quasi_static:
         qz_static = _expand(layout, period, _static(period)[:, out_steps % period.period],
                             out_steps)
     if quasi_static:
@@ -120,12 +121,13 @@ def _response(model: Model, status: np.ndarray, result: dict, static: bool = Tru
     marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
     if time_cfg["start"] == "periodic":
-        periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase)
+        periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase, full)
         state = from_independent(terms, scheme, *periodic)
-        largest = np.abs(mu).max(axis=-1)
-        result["floquet_multiplier_max"] = largest
-        status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
-        status[resonant] |= STATUS_FLAGS["resonant"]
+        if full:
+            largest = np.abs(mu).max(axis=-1)
+            result["floquet_multiplier_max"] = largest
+            status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
+            status[resonant] |= STATUS_FLAGS["resonant"]
     else:
         q0 = np.zeros((ncase, ny, 1))
         v0 = np.zeros_like(q0)

@@ -19,9 +19,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["lu_factor", "lu_solve", "newmark_march", "static_period", "expand"]
+__all__ = ["lu_factor", "lu_solve", "lu_solve_columns", "newmark_march", "static_period",
+           "expand"]
 
-_JIT = dict(cache=True, nogil=True, fastmath=False)
+_JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 
 
 @nb.njit(**_JIT)
@@ -78,6 +79,33 @@ def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
 
 
 @nb.njit(**_JIT)
+def lu_solve_columns(LU: np.ndarray, piv: np.ndarray, X: np.ndarray) -> None:
+    """Solve A X = B in place for B (n, r), given A's :func:`lu_factor`; the loops run along
+    the r columns (contiguous), so that many right-hand sides vectorize."""
+    n, r = X.shape
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            for s in range(r):
+                t = X[k, s]
+                X[k, s] = X[p, s]
+                X[p, s] = t
+    for i in range(n):
+        for k in range(i):
+            f = LU[i, k]
+            for s in range(r):
+                X[i, s] -= f * X[k, s]
+    for i in range(n - 1, -1, -1):
+        for k in range(i + 1, n):
+            f = LU[i, k]
+            for s in range(r):
+                X[i, s] -= f * X[k, s]
+        inv = 1.0 / LU[i, i]
+        for s in range(r):
+            X[i, s] *= inv
+
+
+@nb.njit(**_JIT)
 def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_steps,
                   q, v, acc, a, record_every, record, LU, piv, factored, ok):
     """March the Newmark family from step 0 to ``n_steps``, every case, in place.
@@ -112,11 +140,11 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
     """
     ncase, P, n = K.shape[0], K.shape[1], K.shape[2]
     r = q.shape[2]
-    # Work arrays column-major (r, n): each right-hand side contiguous.
-    rhs = np.empty((r, n))
-    qh = np.empty((r, n))
-    vh = np.empty((r, n))
-    ak = np.empty((r, n))
+    # Work arrays (n, r): with many columns (shooting) every inner loop runs along them.
+    rhs = np.empty((n, r))
+    qh = np.empty((n, r))
+    vh = np.empty((n, r))
+    ak = np.empty((n, r))
     w = (1.0 - alpha_f) / (1.0 - alpha_m)
     for c in range(ncase):
         hc = h[c]
@@ -130,27 +158,43 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
                 break
             j = (k + 1) % P
             Kj = K[c, j]
-            for s in range(r):
-                for i in range(n):
-                    ak[s, i] = (alpha_f * acc[c, i, s] - alpha_m * a[c, i, s]) / (1.0 - alpha_m)
-                    qh[s, i] = q[c, i, s] + hc * v[c, i, s] + hc * hc * (
-                        (0.5 - beta) * a[c, i, s] + beta * ak[s, i])
-                    vh[s, i] = v[c, i, s] + hc * ((1.0 - gamma) * a[c, i, s] + gamma * ak[s, i])
-            # rhs = F − K q̂ − C v̂
-            for s in range(r):
-                for i in range(n):
-                    x = F[c, j, i] if s == 0 else 0.0
-                    for m in range(n):
-                        x -= Kj[i, m] * qh[s, m]
-                    rhs[s, i] = x
-            if has_damping:
-                Cj = C[c, j]
+            qc, vc, accc, ac = q[c], v[c], acc[c], a[c]
+            for i in range(n):
                 for s in range(r):
+                    ak[i, s] = (alpha_f * accc[i, s] - alpha_m * ac[i, s]) / (1.0 - alpha_m)
+                    qh[i, s] = qc[i, s] + hc * vc[i, s] + hc * hc * (
+                        (0.5 - beta) * ac[i, s] + beta * ak[i, s])
+                    vh[i, s] = vc[i, s] + hc * ((1.0 - gamma) * ac[i, s] + gamma * ak[i, s])
+            # rhs = F − K q̂ − C v̂
+            if r == 1:
+                for i in range(n):
+                    x = F[c, j, i]
+                    for m in range(n):
+                        x -= Kj[i, m] * qh[m, 0]
+                    rhs[i, 0] = x
+                if has_damping:
+                    Cj = C[c, j]
                     for i in range(n):
-                        x = rhs[s, i]
+                        x = rhs[i, 0]
                         for m in range(n):
-                            x -= Cj[i, m] * vh[s, m]
-                        rhs[s, i] = x
+                            x -= Cj[i, m] * vh[m, 0]
+                        rhs[i, 0] = x
+            else:
+                for i in range(n):
+                    for s in range(r):
+                        rhs[i, s] = 0.0
+                    rhs[i, 0] = F[c, j, i]
+                    for m in range(n):
+                        f = Kj[i, m]
+                        for s in range(r):
+                            rhs[i, s] -= f * qh[m, s]
+                if has_damping:
+                    Cj = C[c, j]
+                    for i in range(n):
+                        for m in range(n):
+                            f = Cj[i, m]
+                            for s in range(r):
+                                rhs[i, s] -= f * vh[m, s]
             LUj = LU[c, j]
             if not factored[c, j]:
                 Mj = M[c, j]
@@ -166,22 +210,25 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
                     ok[c] = False
                     break
                 factored[c, j] = True
+            if r == 1:
+                lu_solve(LUj, piv[c, j], rhs[:, 0])
+            else:
+                lu_solve_columns(LUj, piv[c, j], rhs)
             finite = True
-            for s in range(r):
-                x = rhs[s]
-                lu_solve(LUj, piv[c, j], x)
-                for i in range(n):
-                    acc[c, i, s] = x[i]
-                    q[c, i, s] = qh[s, i] + cK * x[i]
-                    v[c, i, s] = vh[s, i] + cC * x[i]
-                    a[c, i, s] = ak[s, i] + w * x[i]
-                    if not np.isfinite(q[c, i, s]):
-                        finite = False
+            for i in range(n):
+                for s in range(r):
+                    x = rhs[i, s]
+                    accc[i, s] = x
+                    qc[i, s] = qh[i, s] + cK * x
+                    vc[i, s] = vh[i, s] + cC * x
+                    ac[i, s] = ak[i, s] + w * x
+                if not np.isfinite(qc[i, 0]):
+                    finite = False
             if not finite:
                 ok[c] = False
             if record_every > 0 and (k + 1) % record_every == 0:
                 for i in range(n):
-                    record[c, (k + 1) // record_every, i] = q[c, i, 0]
+                    record[c, (k + 1) // record_every, i] = qc[i, 0]
 
 
 @nb.njit(**_JIT)

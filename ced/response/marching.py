@@ -5,9 +5,13 @@ and the factorizations of its step matrices, so that every march over them — t
 one period with 3n + 1 columns, then the response over all revolutions — factorizes each
 step matrix once. The Newmark family runs in the compiled kernel
 (:func:`ced.response.kernels.newmark_march`); Houbolt, or ``compiled=False``, runs the numpy
-loop :func:`ced.response.integrators.march`, which the kernel is tested against.
+loop :func:`ced.response.integrators.march`, which the kernel is tested against. The
+environment variable ``CED_KERNEL=numpy`` makes the numpy loop the default everywhere (to
+check a result against it, or where numba is unavailable for a platform).
 """
 from __future__ import annotations
+
+import os
 
 import numpy as np
 
@@ -26,12 +30,15 @@ class Marcher:
     scheme : NewmarkFamily or Houbolt
     terms : PeriodTerms
     h : (case,) s
-    compiled : bool
-        Use the compiled kernel where the scheme has one (the Newmark family).
+    compiled : bool, optional
+        Use the compiled kernel where the scheme has one (the Newmark family); default: yes,
+        unless ``CED_KERNEL=numpy``.
     """
 
     def __init__(self, scheme: Integrator, terms: PeriodTerms, h: np.ndarray,
-                 compiled: bool = True):
+                 compiled: bool | None = None):
+        if compiled is None:
+            compiled = os.environ.get("CED_KERNEL", "numba") != "numpy"
         self.scheme, self.terms, self.h = scheme, terms, np.ascontiguousarray(h, dtype=float)
         self.compiled = compiled and isinstance(scheme, NewmarkFamily)
         ncase, period, n = terms.stiffness.shape[:3]

@@ -107,72 +107,65 @@ def _interpolate(values, index, weight, out):
                     out[c, m, d] += wj * values[c, src, d]
 
 
-class _Blocks:
-    """The terms of one evaluation flattened to (case, time, D) and back."""
+_NAMES = ("mass", "damping", "stiffness", "force", "projection")
 
-    def __init__(self, terms, P):
-        self.names = [name for name in ("mass", "damping", "stiffness", "force")
-                      if getattr(terms, name) is not None] + ["projection"]
-        arrays = [getattr(terms, name) for name in self.names[:-1]] + [P]
-        self.shapes = [a.shape[2:] for a in arrays]
-        sizes = [int(np.prod(s)) for s in self.shapes]
-        self.bounds = np.cumsum([0] + sizes)
 
-    def flatten(self, terms, P) -> np.ndarray:
-        arrays = [getattr(terms, name) for name in self.names[:-1]] + [P]
-        return np.concatenate([a.reshape(a.shape[:2] + (-1,)) for a in arrays], axis=-1)
+def _interpolate_terms(values: dict, points: np.ndarray, samples: int) -> dict:
+    """Each term at ``points`` (in sample units) from its values at the samples
+    (case, samples, …), into its own C-contiguous array."""
+    index, weight = interpolation_weights(points, samples)
+    out = {}
+    for name, x in values.items():
+        flat = np.empty((x.shape[0], len(points), int(np.prod(x.shape[2:]))))
+        _interpolate(np.ascontiguousarray(x).reshape(x.shape[:2] + (-1,)), index, weight, flat)
+        out[name] = flat.reshape((x.shape[0], len(points)) + x.shape[2:])
+    return out
 
-    def split(self, flat: np.ndarray) -> dict[str, np.ndarray]:
-        """Each term as its own C-contiguous array (case, time, …): the compiled march
-        reads them matrix by matrix."""
-        return {name: np.ascontiguousarray(flat[..., lo:hi]).reshape(flat.shape[:2] + shape)
-                for name, lo, hi, shape in zip(self.names, self.bounds[:-1], self.bounds[1:],
-                                               self.shapes)}
 
-    def interpolate(self, values: np.ndarray, period: int) -> dict[str, np.ndarray]:
-        """Each term at every step of the period from ``values`` at equally spaced samples
-        (case, samples, D), into its own C-contiguous array."""
-        ncase, n = values.shape[:2]
-        index, weight = interpolation_weights(np.arange(period) * (n / period), n)
-        out = {}
-        for name, lo, hi, shape in zip(self.names, self.bounds[:-1], self.bounds[1:],
-                                       self.shapes):
-            flat = np.empty((ncase, period, hi - lo))
-            _interpolate(np.ascontiguousarray(values[..., lo:hi]), index, weight, flat)
-            out[name] = flat.reshape((ncase, period) + shape)
-        return out
-
-    def error(self, approx: np.ndarray, exact: np.ndarray) -> np.ndarray:
-        """(case,) largest block-wise error relative to the block's largest entry."""
-        worst = np.zeros(exact.shape[0])
-        for lo, hi in zip(self.bounds[:-1], self.bounds[1:]):
-            scale = np.abs(exact[..., lo:hi]).max(axis=(1, 2))
-            err = np.abs(approx[..., lo:hi] - exact[..., lo:hi]).max(axis=(1, 2))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                rel = np.where(scale > 0, err / scale, 0.0)
-            worst = np.maximum(worst, np.where(np.isfinite(rel), rel, np.inf))
-        return worst
+def _relative_error(approx: dict, exact: dict) -> np.ndarray:
+    """(case,) largest error of any term relative to that term's largest entry."""
+    worst = None
+    for name, x in exact.items():
+        axes = tuple(range(1, x.ndim))
+        scale = np.abs(x).max(axis=axes)
+        err = np.abs(approx[name] - x).max(axis=axes)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(scale > 0, err / scale, 0.0)
+        rel = np.where(np.isfinite(rel), rel, np.inf)
+        worst = rel if worst is None else np.maximum(worst, rel)
+    return worst
 
 
 #: Bytes of terms evaluated at once (the effects' temporaries are a few times this).
 _CHUNK_BYTES = 50e6
 
 
-def _evaluate(model: Model, h: np.ndarray, phases: np.ndarray) -> tuple["_Blocks", np.ndarray]:
-    """Terms at ``phases`` (in steps, fractional allowed) of every case, flattened
-    (case, phase, D), evaluated in chunks of phases."""
+def _evaluate(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str, np.ndarray]:
+    """Terms at ``phases`` (in steps, fractional allowed) of every case, each its own array
+    (case, phase, …), evaluated in chunks of phases."""
     layout = model.layout
     per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
     chunk = int(max(4, _CHUNK_BYTES // max(per_phase, 1)))
-    blocks, out = None, None
+    out: dict[str, np.ndarray] = {}
     for start in range(0, len(phases), chunk):
         part = phases[start:start + chunk]
         terms, P = terms_at(model, h[:, None] * part[None, :])
-        if blocks is None:
-            blocks = _Blocks(terms, P)
-            out = np.empty((model.batch.size, len(phases), blocks.bounds[-1]))
-        out[:, start:start + len(part)] = blocks.flatten(terms, P)
-    return blocks, out
+        parts = {"projection": P, **{name: getattr(terms, name) for name in _NAMES[:-1]
+                                     if getattr(terms, name) is not None}}
+        for name, x in parts.items():
+            if name not in out:
+                out[name] = np.empty((x.shape[0], len(phases)) + x.shape[2:])
+            out[name][:, start:start + len(part)] = x
+    return out
+
+
+def _interleave(even: dict, odd: dict) -> dict:
+    out = {}
+    for name, x in even.items():
+        y = np.empty((x.shape[0], 2 * x.shape[1]) + x.shape[2:])
+        y[:, 0::2], y[:, 1::2] = x, odd[name]
+        out[name] = y
+    return out
 
 
 def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLES,
@@ -182,31 +175,40 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
     Sampled and interpolated where that is accurate to ``tolerance`` (module docstring),
     evaluated at every step otherwise, or when ``exact``: the check sees the samples only, so a
     motion with features narrower than their spacing (a case ``near_singular``) must ask for it.
+    Samples that fall on steps are reused when every step has to be evaluated after all.
     """
     ncase = model.batch.size
     n = samples
-    if not exact and 2 * n <= period:
-        blocks, values = _evaluate(model, h, np.arange(n) * (period / n))
+    if not exact and 4 * n <= period:  # else every step costs little more than sampling
+        values = _evaluate(model, h, np.arange(n) * (period / n))
         while True:
             # Interpolate the odd samples from the even ones: the half set's error.
-            index, weight = interpolation_weights(np.arange(n // 2) + 0.5, n // 2)
-            approx = np.empty_like(values[:, 1::2])
-            _interpolate(np.ascontiguousarray(values[:, 0::2]), index, weight, approx)
-            estimate = blocks.error(approx, values[:, 1::2]) / _HALVING_GAIN
+            even = {name: x[:, 0::2] for name, x in values.items()}
+            approx = _interpolate_terms(even, np.arange(n // 2) + 0.5, n // 2)
+            estimate = _relative_error(approx, {k: x[:, 1::2] for k, x in values.items()})
+            estimate /= _HALVING_GAIN
             if (estimate <= tolerance).all():
-                return PeriodTerms(**_with_none(blocks.interpolate(values, period)),
-                                   samples=n, interpolation_error=estimate)
+                return PeriodTerms(**_with_none(_interpolate_terms(
+                    values, np.arange(period) * (n / period), n)), samples=n,
+                    interpolation_error=estimate)
             if 4 * n > period:
                 break  # as many samples as steps: evaluate every step
-            _, middle = _evaluate(model, h, (np.arange(n) + 0.5) * (period / n))
-            merged = np.empty((ncase, 2 * n, values.shape[-1]))
-            merged[:, 0::2], merged[:, 1::2] = values, middle
-            values, n = merged, 2 * n
-    blocks, values = _evaluate(model, h, np.arange(period, dtype=float))
-    return PeriodTerms(**_with_none(blocks.split(values)), samples=period,
-                       interpolation_error=np.zeros(ncase))
+            middle = _evaluate(model, h, (np.arange(n) + 0.5) * (period / n))
+            values, n = _interleave(values, middle), 2 * n
+        if period % n == 0:  # the samples are steps: evaluate only the others
+            stride = period // n
+            rest = np.setdiff1d(np.arange(period), np.arange(0, period, stride))
+            others = _evaluate(model, h, rest.astype(float))
+            full = {}
+            for name, x in values.items():
+                y = np.empty((ncase, period) + x.shape[2:])
+                y[:, ::stride], y[:, rest] = x, others[name]
+                full[name] = y
+            return PeriodTerms(**_with_none(full), samples=period,
+                               interpolation_error=np.zeros(ncase))
+    values = _evaluate(model, h, np.arange(period, dtype=float))
+    return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase))
 
 
 def _with_none(parts: dict[str, np.ndarray]) -> dict:
-    return {name: parts.get(name) for name in ("mass", "damping", "stiffness", "force",
-                                                "projection")}
+    return {name: parts.get(name) for name in _NAMES}

@@ -25,7 +25,7 @@ INSTABILITY_MARGIN = 1e-6
 
 
 def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int, ny: int,
-          ncase: int):
+          ncase: int, floquet: bool = True):
     """Exact periodic state of the discretized system and its Floquet multipliers.
 
     Propagates the 3n unit states (homogeneous) and the zero state under the forcing (column
@@ -39,9 +39,10 @@ def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period:
         The periodic state's independent part, each (case, ny, 1)
         (:func:`ced.response.integrators.from_independent` makes the state to march from).
     multipliers : (case, 3 ny) complex
-        Floquet multipliers, the eigenvalues of Φ.
+        Floquet multipliers, the eigenvalues of Φ (None unless ``floquet``: the eigenvalue
+        problem costs more than the periodic state).
     resonant : (case,) bool
-        :func:`resonant`.
+        :func:`resonant` (None unless ``floquet``).
     """
     r = 3 * ny
     # Shoot in the scaled state (q, h v, h² a) (Houbolt: its history, all in m) so that the
@@ -77,8 +78,10 @@ def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period:
         else:  # exact resonance: the minimum-norm periodic state keeps results finite
             s0[c] = np.linalg.lstsq(A[c], p[c], rcond=1e-13)[0]
     s0 = s0 / scale
-    multipliers, vectors = np.linalg.eig(Phi)
     q0, v0, a0 = (s0[:, i * ny : (i + 1) * ny, None] for i in range(3))
+    if not floquet:
+        return (q0, v0, a0), None, None
+    multipliers, vectors = np.linalg.eig(Phi)
     return (q0, v0, a0), multipliers, resonant(multipliers, vectors, p, ny)
 
 

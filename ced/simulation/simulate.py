@@ -50,11 +50,16 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     (:func:`ced.response.elastic.elastic_response`).
     """
     limit = cases_per_solve(batch.scenes[0])
-    if batch.size > limit:
-        parts = [_solve_part(make_batch(batch.scenes[i:i + limit]), peaks_only)
-                 for i in range(0, batch.size, limit)]
-        return {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
-    return _solve_part(batch, peaks_only)
+    if batch.size <= limit:
+        return _solve_part(batch, peaks_only)
+    out: dict[str, np.ndarray] = {}
+    for first in range(0, batch.size, limit):
+        part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only)
+        for name, value in part.items():
+            if name not in out:  # filled part by part: no second copy of the histories
+                out[name] = np.empty((batch.size,) + value.shape[1:], value.dtype)
+            out[name][first:first + len(value)] = value
+    return out
 
 
 def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:

@@ -58,6 +58,7 @@ __all__ = [
     "chunk_scenes",
     "case_config",
     "modal_requested",
+    "estimate_requested",
     "study_size",
 ]
 
@@ -257,12 +258,24 @@ def case_config(config: dict) -> dict:
     return {k: copy.deepcopy(config[k]) for k in CASE_KEYS if k in config}
 
 
+def _elastic(base: dict) -> bool:
+    """Whether a base scene's discretization is elastic (``auto`` is)."""
+    disc = base.get("discretization") or {}
+    return not isinstance(disc, dict) or disc.get("formulation", "euler_bernoulli") != "rigid"
+
+
 def modal_requested(config: dict) -> bool:
     """Whether the base scene asks for a modal analysis with an elastic formulation (the
     study then has natural frequencies and Campbell diagrams)."""
     base = config.get("base_scene") or {}
-    formulation = (base.get("discretization") or {}).get("formulation", "euler_bernoulli")
-    return bool(base.get("modal")) and formulation != "rigid"
+    return bool(base.get("modal")) and _elastic(base)
+
+
+def estimate_requested(config: dict) -> bool:
+    """Whether the study's cases carry an ``error_estimate``: an elastic formulation and
+    ``outputs.error_estimate`` (default true) in the base scene."""
+    base = config.get("base_scene") or {}
+    return _elastic(base) and (base.get("outputs") or {}).get("error_estimate", True) is True
 
 
 

@@ -71,6 +71,52 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     save(fig, png, svg)
 
 
+#: Error estimates marked on :func:`estimate_figure` (relative).
+ESTIMATE_MARKS = (0.01, 0.02, 0.05)
+
+
+def estimate_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
+    """How accurate the study is, by its own estimate: the cumulative distribution of
+    ``error_estimate`` over the cases with status ok, one curve a family and one for all; the
+    title gives the share within each of :data:`ESTIMATE_MARKS`.
+
+    Flagged cases are left out: their flag, not the estimate, decides whether to trust them.
+    """
+    fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
+    everything = []
+    for i, path in enumerate(paths):
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            if "error_estimate" not in ds:
+                continue
+            ok = np.nan_to_num(ds.status.values) == 0
+            values = ds.error_estimate.values[ok]
+            values = np.sort(values[np.isfinite(values)])
+            family = str(ds.family.values[0])
+        if not len(values):
+            continue
+        everything.append(values)
+        ax.step(np.maximum(values, 1e-7), np.arange(1, len(values) + 1) / len(values),
+                where="post", color=f"C{i}", lw=1.2, label=f"{family} ({len(values)})")
+    if everything:
+        total = np.sort(np.concatenate(everything))
+        ax.step(np.maximum(total, 1e-7), np.arange(1, len(total) + 1) / len(total),
+                where="post", color="k", lw=2.0, label=f"all ({len(total)})")
+        shares = ", ".join(f"{np.mean(total <= m):.0%} ≤ {m:.0%}" for m in ESTIMATE_MARKS)
+        ax.set_title(f"error estimate of the {len(total)} unflagged cases: {shares}",
+                     fontsize=9)
+    for m in ESTIMATE_MARKS:
+        ax.axvline(m, color="0.5", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda x, _: f"{100 * x:g} %"))
+    ax.set_xlabel("estimated relative error of peak stress (error_estimate)")
+    ax.set_ylabel("share of unflagged cases at or below")
+    ax.set_ylim(0.0, 1.0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="family (cases)",
+              title_fontsize=7)
+    save(fig, png, svg)
+
+
 def _finite(values: xr.DataArray) -> np.ndarray:
     return np.isfinite(values.values)
 

@@ -72,3 +72,15 @@ def test_short_periods_are_evaluated_exactly():
     batch = make_batch([load_scene({**FOUR_BAR, "time": {"steps_per_revolution": 100}})])
     terms = period_terms(build_model(batch), batch.step_size, 100)
     assert terms.samples == 100 and not terms.interpolation_error.any()
+
+
+def test_failed_check_falls_back_to_every_step_reusing_the_samples():
+    # tolerance 0 cannot be met: every step is evaluated, the samples on the step grid reused.
+    batch = make_batch([load_scene({**FOUR_BAR, "time": {"steps_per_revolution": 512}})])
+    model = build_model(batch)
+    fallback = period_terms(build_model(batch), batch.step_size, 512, tolerance=0.0)
+    exact = period_terms(model, batch.step_size, 512, exact=True)
+    assert fallback.samples == 512
+    for name in ("mass", "damping", "stiffness", "force", "projection"):
+        a, b = getattr(fallback, name), getattr(exact, name)
+        assert np.allclose(a, b, rtol=1e-13, atol=1e-13 * np.abs(b).max()), name

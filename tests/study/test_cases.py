@@ -181,3 +181,14 @@ def test_case_config_holds_only_what_defines_cases(default):
 
 # ------------------------------------------------------------------------------ config checks
 # ------------------------------------------------------------------------------ validation
+
+
+def test_estimate_and_modal_requested_follow_the_base_scene():
+    from ced.study.cases import estimate_requested, modal_requested
+    assert estimate_requested({"base_scene": {}})
+    assert estimate_requested({"base_scene": {"discretization": "auto"}})
+    assert not estimate_requested({"base_scene": {"outputs": {"error_estimate": False}}})
+    assert not estimate_requested({"base_scene": {"discretization": {"formulation": "rigid"}}})
+    assert modal_requested({"base_scene": {"discretization": "auto", "modal": {"modes": 2}}})
+    assert not modal_requested({"base_scene": {"discretization": {"formulation": "rigid"},
+                                               "modal": {"modes": 2}}})

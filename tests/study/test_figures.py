@@ -100,3 +100,18 @@ def test_other_figures_and_table(maps):
     write_safe_speed_table(families, directory / "safe.csv", directory / "safe.md", 2.0)
     lines = (directory / "safe.csv").read_text().splitlines()
     assert len(lines) == 1 + 2 * 2 + 1 * 2  # (2 crank_rocker + 1 slider) geometries x 2 materials
+
+
+def test_estimate_figure_counts_the_unflagged_cases(maps):
+    from ced.study.figures import estimate_figure
+    directory, out = maps
+    paths = [str(out[f][0]) for f in ("crank_rocker", "slider_crank")]
+    png = directory / "estimate.png"
+    estimate_figure(paths, png, png.with_suffix(".svg"))
+    assert written(png)
+    unflagged = 0
+    for p in paths:
+        with xr.open_dataset(p, engine="netcdf4") as ds:
+            ok = ds.status.values == 0
+            unflagged += int(np.isfinite(ds.error_estimate.values[ok]).sum())
+    assert f"the {unflagged} unflagged cases" in png.with_suffix(".svg").read_text()

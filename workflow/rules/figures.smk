@@ -115,3 +115,26 @@ rule safe_speed_table:
         stress_safety_factor=config["stress_safety_factor"],
     script:
         "../scripts/safe_speed_table.py"
+
+
+rule estimate_figure:
+    """How accurate the study is by its own error estimate: its distribution over the cases."""
+    input:
+        expand("results/{{study}}/maps/{family}.nc", family=FAMILIES),
+    output:
+        png=report(
+            "results/{study}/figures/error_estimate.png",
+            caption="../report/error_estimate.rst",
+            category="Overview",
+            labels={"figure": "error estimate", "format": "PNG"},
+        ),
+        svg=report(
+            "results/{study}/figures/error_estimate.svg",
+            caption="../report/error_estimate.rst",
+            category="Overview",
+            labels={"figure": "error estimate", "format": "SVG"},
+        ),
+    log:
+        "results/{study}/logs/figures/error_estimate.log",
+    script:
+        "../scripts/estimate_figure.py"
