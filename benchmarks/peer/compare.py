@@ -53,13 +53,14 @@ PEER_VENV = HERE.parent / ".peer-venv"
 PEER_PYTHON = PEER_VENV / "bin" / "python"
 PEER_SCRIPT = HERE / "exudyn_four_bar.py"
 RESULTS = HERE.parent / "peer_results.json"
+CACHE = HERE.parent / ".peer-cache"  # gitignored: one JSON per (setting, speeds) sweep
 
 SPEEDS = np.linspace(90.0, 110.0, 100)
 TOLERANCE = 0.01
 REFERENCE = (16, 8192)  # elements, steps per revolution
 REFINEMENTS = ((32, 16384), (16, 16384))
 CHECK_SPEEDS = (90.0, 100.0, 110.0)
-ELEMENTS = (4, 8, 16)
+ELEMENTS = (4, 8, 12, 16)
 STEPS = (256, 512, 768, 1024, 1257, 1536, 2048, 3072, 4096)
 
 
@@ -77,12 +78,31 @@ def setup_peer() -> str:
     return proc.stdout.strip().split()[-1]
 
 
-def peer_sweep(speeds, elements: int, steps: int, drive: str = "velocity") -> dict:
+_USE_CACHE = True
+
+
+def peer_sweep(speeds, elements: int, steps: int, drive: str = "velocity",
+               cached: bool = True) -> dict:
     """Run the Exudyn model at ``speeds`` with one setting, in the peer venv.
 
     Returns the peer's JSON: ``cases`` is a list of {speed, peak_strain, solver_seconds, ...}
-    in the order of ``speeds``.
+    in the order of ``speeds``. A sweep already run (same setting, speeds and peer script) is
+    read from ``benchmarks/.peer-cache`` unless ``cached`` is False or ``--fresh`` was given.
     """
+    import hashlib  # noqa: PLC0415
+
+    key = hashlib.sha256(json.dumps([PEER_SCRIPT.read_text(), elements, steps, drive,
+                                     [float(x) for x in speeds]]).encode()).hexdigest()[:16]
+    path = CACHE / f"{elements}x{steps}-{drive}-{len(speeds)}-{key}.json"
+    if cached and _USE_CACHE and path.exists():
+        return json.loads(path.read_text())
+    run = _peer_sweep(speeds, elements, steps, drive)
+    CACHE.mkdir(exist_ok=True)
+    path.write_text(json.dumps(run))
+    return run
+
+
+def _peer_sweep(speeds, elements: int, steps: int, drive: str) -> dict:
     if not PEER_PYTHON.exists():
         raise PeerError(f"no peer venv at {PEER_VENV}; run benchmarks/peer/setup_peer.sh")
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
@@ -121,6 +141,7 @@ def setting_record(run: dict, reference: np.ndarray) -> dict:
             "max_rel_error": float(err.max()), "p95_rel_error": float(np.percentile(err, 95)),
             "worst_speed": float(run["cases"][int(err.argmax())]["speed"]),
             "passes": bool(err.max() <= TOLERANCE),
+            "peak_strain": _peaks(run).tolist(),
             "mean_solver_seconds": float(sec.mean()),
             "median_solver_seconds": float(np.median(sec)),
             "total_solver_seconds": float(sec.sum())}
@@ -160,31 +181,39 @@ def peer_search(speeds=SPEEDS, elements=ELEMENTS, steps=STEPS, reference=REFEREN
                      key=lambda s: s["total_solver_seconds"])
     chosen = None
     if passing:
-        # Re-time the cheapest candidates (the machine is shared): keep the lower total.
+        # The machine is shared: re-time the cheapest candidates once more and take, per
+        # case, the lower of the two solver times (best of 2), then rank by that total.
         for s in passing[:3]:
-            _log(f"re-timing {s['elements']} elements, {s['steps_per_revolution']} steps")
-            again = peer_sweep(speeds, s["elements"], s["steps_per_revolution"])
+            ne, ns = s["elements"], s["steps_per_revolution"]
+            _log(f"re-timing {ne} elements, {ns} steps")
+            again = peer_sweep(speeds, ne, ns, cached=False)
+            best = np.minimum(_seconds(runs[(ne, ns)]), _seconds(again))
             s["retimed_total_solver_seconds"] = float(_seconds(again).sum())
-            s["best_total_solver_seconds"] = min(s["total_solver_seconds"],
-                                                 s["retimed_total_solver_seconds"])
+            s["best_of_2_total_solver_seconds"] = float(best.sum())
+            s["best_of_2_mean_solver_seconds"] = float(best.mean())
             s["retimed_max_rel_error"] = float(np.abs(_peaks(again) / ref - 1.0).max())
-        head = sorted(passing[:3], key=lambda s: s["best_total_solver_seconds"])
-        chosen = dict(head[0])
-        chosen["mean_solver_seconds_per_case"] = chosen["best_total_solver_seconds"] / len(speeds)
+        head = sorted(passing[:3], key=lambda s: s["best_of_2_total_solver_seconds"])
+        chosen = {k: v for k, v in head[0].items() if k != "peak_strain"}
+        chosen["mean_solver_seconds_per_case"] = chosen["best_of_2_mean_solver_seconds"]
     return {
         "reference": {"elements": reference[0], "steps_per_revolution": reference[1],
                       "speeds": speeds, "peak_strain": ref.tolist(),
                       "solver_seconds": _seconds(ref_run).tolist(),
                       "wall_seconds_whole_sweep": ref_wall},
+        "reference_setting": list(reference),
         "reference_convergence": convergence,
         "settings": settings,
         "chosen": chosen,
+        "check_speeds": chk_speeds,
         "exudyn": ref_run["exudyn"],
         "peer_python": ref_run["python"],
     }
 
 
 CED_SETTINGS = ((16, 8192), (32, 8192))
+#: Low speeds (small deflections, far from resonance): where a linearized and a geometrically
+#: exact model must agree closely.
+LOW_SPEEDS = (30.0, 50.0, 70.0)
 
 
 def ced_cross_check(speeds=CHECK_SPEEDS, settings=CED_SETTINGS) -> list:
@@ -234,7 +263,10 @@ def main(argv=None) -> int:
                    help="11 speeds and a small grid (smoke test; does not write results)")
     p.add_argument("--no-ced", action="store_true", help="skip the cross-check with ced")
     p.add_argument("--output", default=str(RESULTS))
+    p.add_argument("--fresh", action="store_true", help="ignore benchmarks/.peer-cache")
     args = p.parse_args(argv)
+    global _USE_CACHE
+    _USE_CACHE = not args.fresh
     started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     mach = machine()
     try:
@@ -251,17 +283,23 @@ def main(argv=None) -> int:
         return 1
     cross = None
     if not args.no_ced:
-        _log("ced cross-check")
-        cross = ced_cross_check()
+        # Same speeds for both codes: the sweep's speeds nearest CHECK_SPEEDS (100 rad/s is not
+        # in linspace(90, 110, 100)), and LOW_SPEEDS with the peer at its reference setting.
+        speeds = list(result["check_speeds"]) + ([] if args.quick else list(LOW_SPEEDS))
         peer_ref = dict(zip(result["reference"]["speeds"], result["reference"]["peak_strain"]))
+        low = [] if args.quick else list(LOW_SPEEDS)
+        if low:
+            run = peer_sweep(low, *result["reference_setting"])
+            peer_ref.update({c["speed"]: c["peak_strain"] for c in run["cases"]})
+        _log(f"ced cross-check at {speeds}")
+        cross = ced_cross_check(speeds)
         for c in cross:
             c["ced_setting"] = [c["elements"], c["steps_per_revolution"]]
-            near = min(peer_ref, key=lambda s: abs(s - c["speed"]))
-            c["peer_speed"] = near
-            c["peer_peak_strain"] = peer_ref[near]
-            c["ced_over_peer_minus_1"] = c["peak_strain"] / peer_ref[near] - 1.0
-            _log(f"  {c['speed']:.1f} rad/s: ced {c['ced_setting']} {c['peak_strain']:.5e}, "
-                 f"exudyn {peer_ref[near]:.5e} ({near:.3f} rad/s), "
+            c["peer_setting"] = list(result["reference_setting"])
+            c["peer_peak_strain"] = peer_ref[c["speed"]]
+            c["ced_over_peer_minus_1"] = c["peak_strain"] / peer_ref[c["speed"]] - 1.0
+            _log(f"  {c['speed']:.3f} rad/s: ced {c['ced_setting']} {c['peak_strain']:.5e}, "
+                 f"exudyn {c['peer_peak_strain']:.5e}, "
                  f"diff {100 * c['ced_over_peer_minus_1']:+.2f} %")
     doc = {
         "what": "Exudyn (peer) on ced's reference flexible four-bar: cheapest setting whose "
@@ -303,6 +341,7 @@ def main(argv=None) -> int:
         "tolerance": TOLERANCE,
         **result,
         "ced_cross_check": cross,
+        "load_average_at_end": list(os.getloadavg()),
     }
     if args.quick:
         print(json.dumps(doc, indent=1))
