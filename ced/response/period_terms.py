@@ -77,9 +77,10 @@ class PeriodTerms:
 
 
 def interpolation_weights(points: np.ndarray, samples: int):
-    """Periodic :data:`STENCIL`-point Lagrange stencil at ``points`` in sample units (phase × samples / 2π).
+    """Periodic :data:`STENCIL`-point Lagrange stencil at ``points`` in sample units
+    (phase × samples / 2π).
 
-    Returns (index (m, 6) int, weight (m, 6)): the value at a point is
+    Returns (index (m, STENCIL) int, weight (m, STENCIL)): the value at a point is
     Σ_j weight[:, j] × value[index[:, j]].
     """
     points = np.asarray(points, float)
