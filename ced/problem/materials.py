@@ -58,11 +58,32 @@ COMPUTED_SECTION_KEYS = ("area", "second_moment", "shear_coefficient")
 
 _RTOL = 1e-9
 
+
 _E = Real(low=0.0, low_open=True, unit="Pa")
 _RHO = Real(low=0.0, low_open=True, unit="kg/m^3")
 _NU = Real(low=-1.0, high=0.5, low_open=True, high_open=True)
 _YIELD = Real(low=0.0, low_open=True, unit="Pa")
 _SIZE = Real(low=0.0, low_open=True, unit="m")
+
+#: Inline-material keys: (check, default, one line of meaning), for the generated scene
+#: reference (:mod:`ced.problem.reference`); the checks are the ones :func:`resolve_material`
+#: applies.
+MATERIAL_FIELDS = {
+    "name": (Text(nonempty=True), "inline(E=…,rho=…,nu=…)",
+             "label of the material (the case coordinate material)"),
+    "source": (Text(), None, "where the values come from (free text)"),
+    "E": (_E, "required", "Young's modulus"),
+    "rho": (_RHO, "required", "density"),
+    "nu": (_NU, "required", "Poisson's ratio"),
+    "yield_strength": (_YIELD, None, "yield strength, for the study's stress utilisation"),
+}
+#: Section keys: (check, default, one line of meaning), as :func:`section_properties` checks.
+SECTION_FIELDS = {
+    "shape": (Choice(tuple(SECTION_SHAPES)), "required", "decides which sizes are needed"),
+    "height": (_SIZE, "required for a rectangle", "rectangle: in-plane size, the bending depth"),
+    "width": (_SIZE, "required for a rectangle", "rectangle: out-of-plane size"),
+    "diameter": (_SIZE, "required for a circle", "circle: diameter of the solid round section"),
+}
 
 
 # --------------------------------------------------------------------------------- library
