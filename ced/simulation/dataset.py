@@ -337,7 +337,11 @@ def dataset_reference() -> str:
         "`status` is a bit field (CF `flag_masks`, `flag_meanings`); a case is `ok` when no "
         "bit is set. Read it with `ced.problem.status.status_names(int(code))`.",
         "",
+        "<!-- status flags: start -->",
+        "",
         markdown_table(["flag", "bit", "meaning", "what to do"], flags),
+        "",
+        "<!-- status flags: end -->",
         "",
         "## Global attributes",
         "",
