@@ -36,10 +36,11 @@ docs: $(DOCS_STAMP)
 
 # Regenerate docs/reference/ from the code (tests/test_docs_reference.py checks it is current).
 reference: $(STAMP)
-	$(BIN)/python -m ced.study.reference docs/reference
+	$(BIN)/python -c 'from ced.cli import write_references; write_references("docs/reference")'
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/estimate_check.py --cores $(CORES)
 
 # Long, needs root: a single-node SLURM on this machine (apt-get slurm-wlm munge), the executor
 # plugin pip-installed into .venv, the test study through workflow/profiles/slurm vs. locally.

@@ -1,4 +1,5 @@
-"""What a run asks of the machine, estimated before any work: output bytes and peak memory.
+"""What a run asks of the machine, estimated before any work: output bytes, peak memory and
+run time.
 
 ``ced check`` sizes a study with it (:mod:`ced.study.config`) and :func:`ced.simulate` refuses
 a set of scenes whose estimated peak memory exceeds this machine's
@@ -7,13 +8,14 @@ that would exhaust the memory hours later.
 """
 from __future__ import annotations
 
+import math
 import os
 
 from ..problem.errors import SceneError
 from ..problem.mechanism import topology
 from ..response.batch import step_count
 
-__all__ = ["case_bytes", "solver_bytes", "case_memory", "run_memory", "check_run_memory",
+__all__ = ["case_bytes", "elastic_dofs", "case_seconds", "solver_bytes", "case_memory", "run_memory", "check_run_memory",
            "machine_memory", "size_text", "WORKING_MEMORY_FACTOR", "BASE_MEMORY_BYTES"]
 
 #: Peak memory of a chunk job ≈ BASE + FACTOR × chunk_size × (in-memory bytes of one case):
@@ -26,7 +28,7 @@ BASE_MEMORY_BYTES = 300 * 2**20
 
 
 def case_bytes(scene: dict, itemsize: int = 4) -> int:
-    """Bytes of one case's output variables (DESIGN §5), uncompressed.
+    """Bytes of one case's output variables (docs/reference/dataset.md), uncompressed.
 
     With S output steps (``revolutions × steps_per_revolution // every + 1``), L links,
     J joints, P stations, A modal angles, M modes, g = 1 for a slider-crank (guide force), e = 1
@@ -72,7 +74,7 @@ def machine_memory() -> int:
 _DOFS_PER_ELEMENT = {"euler_bernoulli": 3, "timoshenko": 3, "seed_lame": 5, "plane_stress": 16}
 
 
-def _dofs(scene: dict) -> int:
+def elastic_dofs(scene: dict) -> int:
     """Elastic DOFs of a scene's model, roughly (an upper bound; ``auto`` counts its finest
     ladder rung, 128 elements)."""
     disc = scene["discretization"]
@@ -93,7 +95,7 @@ def solver_bytes(scene: dict) -> int:
     """Working arrays of the solver for one case beyond its outputs, bytes: the modal analysis
     holds K and M (and two factors) at every modal angle at once, 8·4·A·n² for n DOFs; the
     periodic shooting a 3n × 3n monodromy matrix and its factors, 8·4·9n²."""
-    n = _dofs(scene)
+    n = elastic_dofs(scene)
     modal = scene.get("modal") or {"angles": 0}
     shooting = scene["time"]["start"] == "periodic"
     return 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
@@ -150,3 +152,69 @@ def size_text(n: float) -> str:
             return f"{n:.3g} {unit}"
         n /= 1000
     raise AssertionError
+
+
+# ------------------------------------------------------------------------------ run time
+# Measured cost model of one case inside a vectorized batch, one core, one BLAS thread, by
+# benchmarks/calibrate_cost.py (batches of 8 reference four-bars with a flexible coupler and
+# rocker, 1 revolution of 128 steps, fastest of 2 runs; 2026-11-24, this project's 2-core
+# machine). Re-measure when the solver changes; benchmarks/estimate_check.py compares the
+# resulting study estimate with a measured run of config/studies/test.yaml.
+#: Rigid analysis (kinematics, inverse dynamics, dataset), s per case per time step.
+COST_RIGID_STEP = 2.19e-05
+#: Elastic response marching from rest, s per case per time step, at n elastic DOFs: (n, s).
+COST_STEP_UNDEFORMED = ((6, 9.8e-05), (12, 0.00011), (24, 0.00016), (48, 0.000373),
+                        (96, 0.00131))
+#: The same over one revolution with ``start: periodic`` (marching plus shooting), (n, s).
+COST_STEP_PERIODIC = ((6, 0.000132), (12, 0.000152), (24, 0.000326), (48, 0.000991),
+                      (96, 0.00395))
+#: Modal analysis, s per case per modal angle (4 modes), (n, s).
+COST_MODAL_ANGLE = ((12, 8.05e-05), (48, 0.000374))
+#: Factor on a case's cost for its error estimate (the coarser or finer companion solution).
+COST_ERROR_ESTIMATE = 3.59
+
+
+def _interpolate(table: tuple, n: float) -> float:
+    """Log-log interpolation in a measured (n, cost) table, extrapolated with the end slopes."""
+    xs = [math.log(x) for x, _ in table]
+    ys = [math.log(y) for _, y in table]
+    x = math.log(max(n, 1.0))
+    i = 1 if x <= xs[0] else len(xs) - 1 if x >= xs[-1] else \
+        next(k for k in range(1, len(xs)) if x <= xs[k])
+    slope = (ys[i] - ys[i - 1]) / (xs[i] - xs[i - 1])
+    return math.exp(ys[i - 1] + slope * (x - xs[i - 1]))
+
+
+def case_seconds(scene: dict) -> float:
+    """Estimated solve time of one case in a vectorized batch, one core, s.
+
+    From the measured tables above: the rigid analysis per step; the elastic response per
+    step at the model's elastic DOFs (:func:`elastic_dofs`), with the periodic start's extra
+    cost over one revolution; the modal analysis per angle; times
+    :data:`COST_ERROR_ESTIMATE` when the case's error is estimated. An estimate within a
+    factor of about two: the machine's load and the scene's effects are not modelled.
+
+    Examples
+    --------
+    >>> from ced.problem.scene import load_scene
+    >>> rigid = load_scene({"mechanism": {"type": "single_link", "length": 0.5},
+    ...                     "discretization": {"formulation": "rigid"}})
+    >>> round(case_seconds(rigid), 4)  # 1025 steps x 2.19e-05 s
+    0.0224
+    """
+    steps = step_count(scene) + 1
+    seconds = COST_RIGID_STEP * steps
+    n = elastic_dofs(scene)
+    if not n:
+        return seconds
+    elastic = _interpolate(COST_STEP_UNDEFORMED, n) * steps
+    time_ = scene["time"]
+    if time_["start"] == "periodic":
+        extra = _interpolate(COST_STEP_PERIODIC, n) - _interpolate(COST_STEP_UNDEFORMED, n)
+        elastic += max(extra, 0.0) * (time_["steps_per_revolution"] + 1)
+    modal = scene.get("modal")
+    if modal:
+        elastic += _interpolate(COST_MODAL_ANGLE, n) * modal["angles"]
+    if scene["outputs"]["error_estimate"]:
+        elastic *= COST_ERROR_ESTIMATE
+    return seconds + elastic
