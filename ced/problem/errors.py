@@ -5,7 +5,7 @@ checks (:mod:`ced.study.config`). Every check takes the value and its dotted key
 returns the normalized value (plain Python ``float``/``int``/``str``/``bool``) and raises
 :class:`SceneError` naming the path and what is allowed.
 
-Number rules (DESIGN §4 leaves them open; these are the choices):
+Number rules (the choices of the scene format, docs/reference/scene.md):
 
 - ``bool`` is never a number (``true`` is not 1).
 - Where a float is expected an integer is accepted and converted to ``float``; ``-0.0``

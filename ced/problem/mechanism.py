@@ -1,6 +1,6 @@
 """Mechanism geometry: topology, Grashof classification, input limits and transmission criteria.
 
-Four-bar naming (DESIGN §3): ground pivots A = (0, 0) and D = (ground, 0); links crank (A→B),
+Four-bar naming (docs/theory.md, docs/guide/first_scene.md): ground pivots A = (0, 0) and D = (ground, 0); links crank (A→B),
 coupler (B→C), rocker (D→C). Slider-crank: crank (A→B), rod (B→C), slider at C on a guide
 parallel to x at signed ``offset``. Single link: one link A→B driven about A, free tip B.
 
@@ -28,7 +28,7 @@ __all__ = [
     "NEAR_SINGULAR_SIN",
 ]
 
-#: Relative tolerance for the Grashof equality S + L = P + Q (DESIGN §3).
+#: Relative tolerance for the Grashof equality S + L = P + Q.
 GRASHOF_RTOL = 1e-9
 
 FAMILIES = (
@@ -108,7 +108,7 @@ def _close(x: float, y: float) -> bool:
 
 
 def classify(ground: float, crank: float, coupler: float, rocker: float) -> str:
-    """Grashof family of a four-bar (thesis I.1.1, DESIGN §3).
+    """Grashof family of a four-bar (thesis I.1.1).
 
     Parameters
     ----------

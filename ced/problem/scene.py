@@ -1,4 +1,4 @@
-"""Scene files: parse, validate and normalize (DESIGN §4).
+"""Scene files: parse, validate and normalize (docs/reference/scene.md is generated from here).
 
 :func:`load_scene` turns a scene (a YAML file or a mapping) into a new plain nested dict with
 every default filled in, every value checked and every derived quantity (resolved materials,
@@ -78,7 +78,7 @@ AUTO = "auto"
 SCENE_KEYS = ("name", "mechanism", "links", "point_masses", "drive", "effects", "gravity",
               "damping", "discretization", "time", "modal", "outputs", "tolerance")
 
-#: The link every scene starts from (DESIGN §4).
+#: The link every scene starts from.
 BUILTIN_LINK = {"material": "steel",
                 "section": {"shape": "rectangle", "height": 0.005, "width": 0.01},
                 "flexible": True}
@@ -431,7 +431,7 @@ def load_scene(source: str | os.PathLike | Mapping) -> dict:
     Returns
     -------
     dict
-        A new plain dict with every key of DESIGN §4 present (``modal`` is None when no modal
+        A new plain dict with every scene key present (``modal`` is None when no modal
         analysis is asked for), defaults filled, ``effects`` in canonical order, materials
         resolved (:func:`ced.problem.materials.resolve_material`) and section properties computed
         (:func:`ced.problem.materials.section_properties`) for every link of the mechanism.

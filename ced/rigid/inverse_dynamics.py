@@ -2,7 +2,7 @@
 
 Newton–Euler for every moving body, written as one small linear system per (case, step) and
 solved batched. Unknowns: the force of every joint (on the body listed second by the body
-listed first, DESIGN §3), the slider guide's normal force and reaction moment, and the input
+listed first, docs/theory.md), the slider guide's normal force and reaction moment, and the input
 torque on the input link (the thesis sets the crank's moment equation to zero and so loses
 the driving torque, II.1 eq. 3; it is computed here).
 

@@ -1,6 +1,6 @@
 """The case table of a study config and its chunks.
 
-The case table is a pure, deterministic function of the config (DESIGN §6): the cartesian
+The case table is a pure, deterministic function of the config (docs/reference/config.md): the cartesian
 product of the grids, each geometry classified (Grashof) into its family, filtered by the
 families to keep, in a fixed order (mechanism type, then the length grids in the order of
 :data:`GRID_KEYS`, then speed, material, section). A case's id is its position among the

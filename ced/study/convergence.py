@@ -1,4 +1,4 @@
-"""Convergence studies: what each step of accuracy costs in time (issue 6, DESIGN §7).
+"""Convergence studies: what each step of accuracy costs in time (issue 6, docs/accuracy.md).
 
 For a reference scene of each family, a sweep of discretizations (elements per link, steps per
 revolution, integrator, formulation, modal reduction) is solved; each setting is timed per case

@@ -1,6 +1,6 @@
 """The fidelity ladder: one scene through every model, each refined until converged.
 
-Rungs (DESIGN §3 formulations): ``rigid``, quasi-static ``euler_bernoulli`` (no elastic
+Rungs (the formulations of docs/theory.md): ``rigid``, quasi-static ``euler_bernoulli`` (no elastic
 inertia), dynamic ``euler_bernoulli``, ``timoshenko``, ``seed_lame`` (thesis II.5) and
 ``plane_stress`` (thesis II.3) where available. For each rung the mesh is doubled until the
 peak stress of the watched link and its first natural frequency change by less than

@@ -1,4 +1,4 @@
-"""Maps: chunk datasets → per-family summaries and grid maps (DESIGN §6).
+"""Maps: chunk datasets → per-family summaries and grid maps (docs/guide/first_study.md).
 
 Each chunk is reduced on its own (peaks over the cycle) and the small results are
 concatenated, so memory stays bounded by one chunk whatever the study size
