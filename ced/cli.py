@@ -21,6 +21,16 @@ def default_output(scenes: list[str]) -> str:
     """Where ``ced run`` writes without ``-o``: the first scene's file name with ``.nc``, in
     the current directory.
 
+    Parameters
+    ----------
+    scenes : list of str
+        The scene files given to ``ced run``.
+
+    Returns
+    -------
+    str
+        A file name in the current directory.
+
     Examples
     --------
     >>> default_output(["config/scenes/sung_thompson.yaml", "other.yaml"])
@@ -224,7 +234,18 @@ def cli_reference() -> str:
 def write_references(directory: str | Path) -> list[Path]:
     """Write every generated reference page into ``directory`` (``make reference``): the scene,
     study-config and dataset references (:func:`ced.study.reference.write_references`) and the
-    command-line reference (:func:`cli_reference`). Returns the paths written."""
+    command-line reference (:func:`cli_reference`). Returns the paths written.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Target folder (``docs/reference``).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     from .study.reference import write_references as write_lower
 
     paths = write_lower(directory)
@@ -234,7 +255,19 @@ def write_references(directory: str | Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``ced`` console script; returns the exit code."""
+    """Entry point of the ``ced`` console script; returns the exit code.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments without the program name (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 for bad input (a message names the key), 1 for a run that failed for
+        another reason.
+    """
     from .problem.errors import SceneError
 
     args = _parser().parse_args(argv)

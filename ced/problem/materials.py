@@ -223,7 +223,26 @@ def _check_consistent(spec: Mapping, computed: Mapping[str, float], path: str,
 
 # -------------------------------------------------------------------------------- sections
 def cowper_shear_coefficient(shape: str, nu: float) -> float:
-    """Cowper's (1966) Timoshenko shear coefficient of a rectangle or a solid circle."""
+    """Cowper's (1966) Timoshenko shear coefficient of a rectangle or a solid circle.
+
+    Parameters
+    ----------
+    shape : str
+        ``rectangle`` or ``circle``.
+    nu : float
+        Poisson's ratio (dimensionless).
+
+    Returns
+    -------
+    float
+        The shear coefficient k (dimensionless): 10(1 + ν)/(12 + 11ν) for the rectangle,
+        6(1 + ν)/(7 + 6ν) for the solid circle.
+
+    Examples
+    --------
+    >>> round(cowper_shear_coefficient("rectangle", 0.0), 4)
+    0.8333
+    """
     if shape == "rectangle":
         return 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
     if shape == "circle":

@@ -462,11 +462,33 @@ def load_scene(source: str | os.PathLike | Mapping) -> dict:
 
 
 def dump_scene(scene: Mapping) -> str:
-    """Canonical JSON of a (normalized) scene: sorted keys, compact separators, no NaN."""
+    """Canonical JSON of a (normalized) scene: sorted keys, compact separators, no NaN.
+
+    Parameters
+    ----------
+    scene : mapping
+        A scene, normally as returned by :func:`load_scene`.
+
+    Returns
+    -------
+    str
+        The JSON text (equal scenes give equal text).
+    """
     return json.dumps(scene, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
                       allow_nan=False)
 
 
 def scene_hash(scene: Mapping) -> str:
-    """First 12 hex digits of the SHA-1 of :func:`dump_scene` (pass a normalized scene)."""
+    """First 12 hex digits of the SHA-1 of :func:`dump_scene` (pass a normalized scene).
+
+    Parameters
+    ----------
+    scene : mapping
+        A normalized scene (:func:`load_scene`).
+
+    Returns
+    -------
+    str
+        12 hexadecimal digits identifying the scene.
+    """
     return hashlib.sha1(dump_scene(scene).encode("utf-8")).hexdigest()[:12]

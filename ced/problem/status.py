@@ -81,7 +81,18 @@ STATUS_FILL = 65535
 
 
 def status_code(flags: Iterable[str]) -> int:
-    """Combine flag names into a status code (0 is ok)."""
+    """Combine flag names into a status code (0 is ok).
+
+    Parameters
+    ----------
+    flags : iterable of str
+        Flag names from :data:`STATUS_FLAGS`.
+
+    Returns
+    -------
+    int
+        The bit field (dimensionless).
+    """
     code = 0
     for name in flags:
         code |= STATUS_FLAGS[name]
@@ -89,6 +100,17 @@ def status_code(flags: Iterable[str]) -> int:
 
 
 def status_names(code: int) -> list[str]:
-    """Flag names set in a status code; ``["ok"]`` for 0."""
+    """Flag names set in a status code; ``["ok"]`` for 0.
+
+    Parameters
+    ----------
+    code : int
+        A case's ``status`` value.
+
+    Returns
+    -------
+    list of str
+        The names of the bits set, in the order of :data:`STATUS_FLAGS`.
+    """
     names = [n for n, bit in STATUS_FLAGS.items() if code & bit]
     return names or ["ok"]

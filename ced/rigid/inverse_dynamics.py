@@ -174,6 +174,20 @@ def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.
     """dT/dt + dV/dt of the whole mechanism, W: Σ m v·(a − g) + I ω α over bodies and masses.
 
     Used to check the power balance P_input = input_torque × ω_input.
+
+    Parameters
+    ----------
+    motion : RigidMotion
+        The rigid motion (:mod:`ced.rigid.kinematics`).
+    bodies : BodyProperties
+        Masses (kg) and moments of inertia (kg m²) of links and point masses.
+    gravity : (2,) sequence of float
+        Gravity vector, m/s².
+
+    Returns
+    -------
+    ndarray, (case, step)
+        The rate of change of kinetic plus potential energy, W.
     """
     topo = motion.topology
     ncase = motion.time.shape[0]

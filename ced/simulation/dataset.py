@@ -241,6 +241,19 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     material and section of the first flexible link, the mechanism's lengths.
 
     ``batches`` in the order they were solved; ``order`` restores the caller's case order.
+
+    Parameters
+    ----------
+    batches : list of Batch
+        The batches in the order they were solved.
+    order : ndarray of int, (case,)
+        Indices restoring the caller's order of the cases.
+
+    Returns
+    -------
+    dict
+        Coordinate name -> (``"case"``, values, attributes); units as in
+        :data:`CASE_COORDINATES` (m, kg, rad s-1).
     """
     scenes = [s for b in batches for s in b.scenes]
     speeds = np.concatenate([b.speed for b in batches])

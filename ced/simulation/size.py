@@ -76,7 +76,18 @@ _DOFS_PER_ELEMENT = {"euler_bernoulli": 3, "timoshenko": 3, "seed_lame": 5, "pla
 
 def elastic_dofs(scene: dict) -> int:
     """Elastic DOFs of a scene's model, roughly (an upper bound; ``auto`` counts its finest
-    ladder rung, 128 elements)."""
+    ladder rung, 128 elements).
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Elastic degrees of freedom of the flexible links (0 for ``rigid``).
+    """
     disc = scene["discretization"]
     if disc == "auto":
         disc = {"formulation": "euler_bernoulli", "elements_per_link": 128,
@@ -94,7 +105,18 @@ def elastic_dofs(scene: dict) -> int:
 def solver_bytes(scene: dict) -> int:
     """Working arrays of the solver for one case beyond its outputs, bytes: the modal analysis
     holds K and M (and two factors) at every modal angle at once, 8·4·A·n² for n DOFs; the
-    periodic shooting a 3n × 3n monodromy matrix and its factors, 8·4·9n²."""
+    periodic shooting a 3n × 3n monodromy matrix and its factors, 8·4·9n².
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
     n = elastic_dofs(scene)
     modal = scene.get("modal") or {"angles": 0}
     shooting = scene["time"]["start"] == "periodic"
@@ -103,7 +125,18 @@ def solver_bytes(scene: dict) -> int:
 
 def case_memory(scene: dict) -> int:
     """Peak memory one case adds to a run, bytes: ``WORKING_MEMORY_FACTOR ×
-    case_bytes(itemsize=8) + solver_bytes``."""
+    case_bytes(itemsize=8) + solver_bytes``.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
     return WORKING_MEMORY_FACTOR * case_bytes(scene, itemsize=8) + solver_bytes(scene)
 
 
@@ -129,13 +162,44 @@ def _driver(scenes: list[dict]) -> str:
 
 def run_memory(scenes: list[dict]) -> tuple[int, str]:
     """Estimated peak memory of solving ``scenes`` together, bytes: ``BASE_MEMORY_BYTES + Σ
-    case_memory``; and the scene key that drives it (the one furthest above its default)."""
+    case_memory``; and the scene key that drives it (the one furthest above its default).
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes solved together.
+
+    Returns
+    -------
+    bytes : int
+        Estimated peak memory.
+    key : str
+        Dotted scene key that drives it (``time.steps_per_revolution``, …).
+    """
     return BASE_MEMORY_BYTES + sum(case_memory(s) for s in scenes), _driver(scenes)
 
 
 def check_run_memory(scenes: list[dict], memory: int | None = None) -> int:
     """Refuse scenes whose estimated peak memory (:func:`run_memory`) exceeds ``memory``
-    (default: this machine's, :func:`machine_memory`); return the estimate, bytes."""
+    (default: this machine's, :func:`machine_memory`); return the estimate, bytes.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes solved together.
+    memory : int, optional
+        Memory available, bytes.
+
+    Returns
+    -------
+    int
+        The estimated peak memory, bytes.
+
+    Raises
+    ------
+    SceneError
+        At the scene key that drives the estimate, when it exceeds ``memory``.
+    """
     need, key = run_memory(scenes)
     memory = machine_memory() if memory is None else memory
     if need > memory:
@@ -146,7 +210,23 @@ def check_run_memory(scenes: list[dict], memory: int | None = None) -> int:
 
 
 def size_text(n: float) -> str:
-    """``1.2 GB`` (decimal units) for a byte count."""
+    """``1.2 GB`` (decimal units) for a byte count.
+
+    Parameters
+    ----------
+    n : float
+        A size, bytes.
+
+    Returns
+    -------
+    str
+        Three significant digits and a decimal unit.
+
+    Examples
+    --------
+    >>> size_text(1234), size_text(2.5e9)
+    ('1.23 kB', '2.5 GB')
+    """
     for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
         if n < 1000 or unit == "PB":
             return f"{n:.3g} {unit}"
@@ -193,6 +273,16 @@ def case_seconds(scene: dict) -> float:
     cost over one revolution; the modal analysis per angle; times
     :data:`COST_ERROR_ESTIMATE` when the case's error is estimated. An estimate within a
     factor of about two: the machine's load and the scene's effects are not modelled.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    float
+        Seconds.
 
     Examples
     --------
