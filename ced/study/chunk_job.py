@@ -27,6 +27,24 @@ def run_chunk(config: dict, family: str, index: int, output: str | Path,
 
     The dataset's ``case`` coordinate is the case id within the family; ``section`` (index
     into the config's sections) is added as a case coordinate beside the section sizes.
+
+    Parameters
+    ----------
+    config : dict
+        The study config (or its case part, :func:`ced.study.cases.case_config`).
+    family : str
+        The family of the chunk.
+    index : int
+        The chunk's index within the family, from 0.
+    output : str or Path
+        The chunk's netCDF file.
+    study : str, optional
+        The study's name for the dataset's ``study`` attribute (default: ``config["study"]``).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     rows = chunk_rows(config, family, index)
     start = time.perf_counter()

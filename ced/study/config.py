@@ -90,6 +90,16 @@ def load_config(path: str | Path) -> dict:
 
     Raises :class:`SceneError` at ``<config>`` for a file that cannot be read or parsed or
     whose top level is not a mapping.
+
+    Parameters
+    ----------
+    path : str or Path
+        The config file.
+
+    Returns
+    -------
+    dict
+        The config as read (not yet validated: :func:`validate_config`).
     """
     config = load_yaml(path, "<config>", "1.1")
     if not isinstance(config, dict):
@@ -187,6 +197,16 @@ def apply_schema(config: Mapping) -> dict:
     Defaults are set while validating (as ``snakemake.utils.validate`` does), so a default
     inside an optional block (``grids.slider_crank.offset``) appears only with the block.
     The first error (``jsonschema``'s best match) becomes a :class:`SceneError`.
+
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+
+    Returns
+    -------
+    dict
+        A checked copy with defaults filled in.
     """
     from jsonschema import Draft202012Validator, validators
     from jsonschema.exceptions import best_match
@@ -470,6 +490,18 @@ def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
     (:data:`MAX_OUTPUT_BYTES`) and the peak memory of a chunk job (``memory``, bytes; default
     this machine's, :func:`machine_memory`). See :class:`StudyEstimate` for the estimates.
 
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+    memory : int, optional
+        Memory a chunk job may use, bytes (default: this machine's).
+
+    Returns
+    -------
+    dict
+        A validated copy with the schema defaults filled in.
+
     Raises
     ------
     SceneError
@@ -480,7 +512,20 @@ def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
 
 
 def study_estimate(config: Mapping, *, memory: int | None = None) -> StudyEstimate:
-    """Validate ``config`` (:func:`validate_config`) and return its :class:`StudyEstimate`."""
+    """Validate ``config`` (:func:`validate_config`) and return its :class:`StudyEstimate`.
+
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+    memory : int, optional
+        Memory a chunk job may use, bytes (default: this machine's).
+
+    Returns
+    -------
+    StudyEstimate
+        Cases, chunk jobs, output bytes, memory per chunk job and run-time model.
+    """
     return _validated(config, memory)[1]
 
 
@@ -489,6 +534,16 @@ def check_config(config: dict) -> dict[str, int]:
     ``snakemake.utils.validate`` does) and return :func:`chunks`.
 
     Everything :func:`validate_config` checks fails here, at parse time, before any job.
+
+    Parameters
+    ----------
+    config : dict
+        The config Snakemake read; replaced in place by the validated one.
+
+    Returns
+    -------
+    dict of str to int
+        Chunk jobs per family.
     """
     filled, estimate = _validated(config)
     config.clear()

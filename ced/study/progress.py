@@ -52,6 +52,16 @@ def split(scenes: list[dict]) -> list[slice]:
     """Parts of a list of normalized scenes: at least :data:`MIN_PART` cases each, at most
     :data:`MAX_PARTS` parts; one part when the scenes cannot be split safely.
 
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes.
+
+    Returns
+    -------
+    list of slice
+        Consecutive parts covering the list.
+
     Examples
     --------
     >>> scene = load_scene({"mechanism": {"type": "single_link", "length": 0.5}})
@@ -84,6 +94,18 @@ def _join(parts: list[xr.Dataset]) -> xr.Dataset:
 
 def eta_text(done: int, total: int, elapsed: float) -> str:
     """``64/250 cases in 12.3 s, about 36 s left`` (linear in the cases done).
+
+    Parameters
+    ----------
+    done, total : int
+        Cases solved so far, and in all.
+    elapsed : float
+        Time since the start, s.
+
+    Returns
+    -------
+    str
+        One line for a log.
 
     Examples
     --------
