@@ -1,19 +1,26 @@
 # Two entry points for a fresh machine with Python 3.11 and pip:
 #   make study   -> set up .venv, run the default study end to end
 #   make test    -> set up .venv, run the test suite
+#   make docs    -> the documentation site in docs/_build/html (warnings are errors)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 CORES ?= 2
 
-.PHONY: study test bench clean cluster-test
+.PHONY: study test docs reference bench clean cluster-test
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e ".[test]"
 	touch $(STAMP)
+
+# The docs extra (Sphinx, numpydoc, sphinx-gallery, MyST) on top of the test install.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/pip install --quiet -e ".[test,docs]"
+	touch $(DOCS_STAMP)
 
 study: $(STAMP)
 	$(BIN)/snakemake --profile workflow/profiles/default --cores $(CORES)
@@ -22,8 +29,18 @@ study: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n $(CORES) tests ced
 
+# -W: a warning fails the build; the gallery's examples run during it.
+docs: $(DOCS_STAMP)
+	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+	@echo "open docs/_build/html/index.html"
+
+# Regenerate docs/reference/ from the code (tests/test_docs_reference.py checks it is current).
+reference: $(STAMP)
+	$(BIN)/python -c 'from ced.cli import write_references; write_references("docs/reference")'
+
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/estimate_check.py --cores $(CORES)
 
 # Long, needs root: a single-node SLURM on this machine (apt-get slurm-wlm munge), the executor
 # plugin pip-installed into .venv, the test study through workflow/profiles/slurm vs. locally.
@@ -31,4 +48,4 @@ cluster-test: $(STAMP)
 	BIN=$(BIN) tests/cluster/run.sh
 
 clean:
-	rm -rf $(VENV) results .snakemake
+	rm -rf $(VENV) results .snakemake docs/_build docs/api/generated docs/auto_examples

@@ -3,7 +3,8 @@
 #
 #   snakemake --profile workflow/profiles/default                       # default study
 #   snakemake --profile workflow/profiles/default --configfile config/studies/<name>.yaml
-#   snakemake --profile workflow/profiles/default --report results/<study>/report.html
+#   snakemake --profile workflow/profiles/default --configfile config/studies/<name>.yaml \
+#       --report results/<name>/report.html     # the report of that study (docs/guide/first_study.md)
 #
 # The profiles set replace-workflow-config: a --configfile study replaces config/config.yaml
 # instead of being merged into it (Snakemake merges nested keys by default).

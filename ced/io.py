@@ -28,6 +28,18 @@ def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = 
     directory, and not one of the ``inputs`` (the run would replace its own scene). A missing
     directory is not created: a typo must not make a tree.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file the run would write.
+    inputs : iterable of str or os.PathLike
+        The run's input files (scenes), which the output must not replace.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a :class:`~pathlib.Path`.
+
     Raises
     ------
     SceneError
@@ -76,6 +88,18 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     Overwriting an open file in place can truncate it (xarray #10679); a reader either sees the
     old file or the complete new one, and a write killed half way leaves only a temp file,
     which the next successful write of the same path removes.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The dataset (as made by :func:`ced.simulate`).
+    path : str or os.PathLike
+        Target netCDF file (netCDF4 engine); its directory must exist.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -45,7 +45,7 @@ def test_check_prints_the_study_size(capsys):
     out = capsys.readouterr().out
     assert "cases: 11536 (12176 grid points" in out
     assert "chunk jobs: 27 (" in out
-    assert "estimated output: 0.661 GB uncompressed" in out
+    assert "estimated output: 1.3 GB uncompressed" in out
     assert "estimated peak memory per chunk job: " in out
 
 
@@ -138,3 +138,36 @@ def test_a_failed_solve_is_a_message_not_a_traceback(tmp_path, capsys, monkeypat
     err = capsys.readouterr().err
     assert err.startswith("ced: error: the run failed: LinAlgError: Singular matrix")
     assert not (tmp_path / "out.nc").exists()
+
+
+def test_version(capsys):
+    import ced
+
+    try:
+        main(["--version"])
+    except SystemExit as exit_:
+        assert exit_.code == 0
+    assert capsys.readouterr().out.strip() == f"ced {ced.__version__}"
+
+
+def test_run_without_output_writes_the_scene_name_here(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(SCENE)]) == 0
+    assert (tmp_path / "sung_thompson_rigid.nc").exists()
+    assert "wrote sung_thompson_rigid.nc" in capsys.readouterr().out
+
+
+def test_every_help_has_an_example(capsys):
+    for args in ([], ["run"], ["check"], ["classify"], ["ladder"]):
+        try:
+            main([*args, "--help"])
+        except SystemExit:
+            pass
+        out = capsys.readouterr().out
+        assert "examples:\n  ced " in out, args
+
+
+def test_check_prints_an_estimated_run_time(capsys):
+    assert main(["check", str(ROOT / "config/studies/test.yaml"), "--cores", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "estimated run time on 4 cores: " in out

@@ -1,4 +1,4 @@
-"""The Snakemake report of the test study (DESIGN §6), opened in headless Chromium: the JS app
+"""The Snakemake report of the test study (docs/guide/first_study.md), opened in headless Chromium: the JS app
 loads without console errors, shows the study's categories, embeds every figure (overview,
 Campbell diagram per family, fidelity ladder) as an image, and renders to a screenshot.
 

@@ -1,4 +1,4 @@
-"""Resume (DESIGN §6, default profile: rerun-incomplete): a study interrupted after some chunks
+"""Resume (docs/guide/first_study.md, default profile: rerun-incomplete): a study interrupted after some chunks
 finishes on the next plain run, reruns only the chunks it lacks, leaves no partial or temporary
 file behind, and gives bitwise the same chunk data as an uninterrupted run. Two uninterrupted
 runs give bitwise the same data too.

@@ -1,4 +1,4 @@
-"""The Snakemake pipeline (DESIGN §6): dry runs of every config, lint, and the tiny test study
+"""The Snakemake pipeline (docs/guide/first_study.md): dry runs of every config, lint, and the tiny test study
 run end to end in a temporary directory (nothing lands in the repository's results/)."""
 import re
 import subprocess

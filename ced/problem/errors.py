@@ -5,7 +5,7 @@ checks (:mod:`ced.study.config`). Every check takes the value and its dotted key
 returns the normalized value (plain Python ``float``/``int``/``str``/``bool``) and raises
 :class:`SceneError` naming the path and what is allowed.
 
-Number rules (DESIGN §4 leaves them open; these are the choices):
+Number rules (the choices of the scene format, docs/reference/scene.md):
 
 - ``bool`` is never a number (``true`` is not 1).
 - Where a float is expected an integer is accepted and converted to ``float``; ``-0.0``
@@ -52,7 +52,23 @@ class SceneError(ValueError):
 
 
 def join(items) -> str:
-    """``a, b, c`` for a message; non-strings are shown with ``repr``."""
+    """``a, b, c`` for a message; non-strings are shown with ``repr``.
+
+    Parameters
+    ----------
+    items : iterable
+        Names or values.
+
+    Returns
+    -------
+    str
+        The items separated by commas.
+
+    Examples
+    --------
+    >>> join(["a", 1, None])
+    'a, 1, null'
+    """
     return ", ".join(item if isinstance(item, str) else shown(item) for item in items)
 
 
@@ -64,7 +80,18 @@ _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 60, 60, 40
 
 
 def shown(value: Any) -> str:
-    """A short rendering of a user value for messages (at most 60 characters)."""
+    """A short rendering of a user value for messages (at most 60 characters).
+
+    Parameters
+    ----------
+    value : any
+        The value to show.
+
+    Returns
+    -------
+    str
+        YAML-like spelling for null and booleans, a bounded ``repr`` otherwise.
+    """
     if value is None or isinstance(value, bool):
         return {None: "null", True: "true", False: "false"}[value]
     text = _REPR.repr(value)
@@ -194,6 +221,27 @@ def check_keys(value: Any, path: str, allowed, what: str = "key") -> Mapping:
     """Check that ``value`` is a mapping whose keys are all in ``allowed``; return it.
 
     The error for an unknown key is reported at ``path.key`` and lists the allowed keys.
+
+    Parameters
+    ----------
+    value : any
+        The value found at ``path``.
+    path : str
+        Dotted key path of ``value``.
+    allowed : sequence of str
+        Keys allowed there.
+    what : str
+        What a key is called in the message (``key``, ``link``, ``joint``).
+
+    Returns
+    -------
+    mapping
+        ``value``, unchanged.
+
+    Raises
+    ------
+    SceneError
+        If ``value`` is not a mapping, or at ``path.key`` for its first unknown key.
     """
     if not isinstance(value, Mapping):
         raise SceneError(path, f"must be a mapping with keys from: {join(allowed)}; "
@@ -206,7 +254,25 @@ def check_keys(value: Any, path: str, allowed, what: str = "key") -> Mapping:
 
 
 def key_path(path: str, key: Any) -> str:
-    """``path.key``, or ``path[<repr>]`` for a key that is not a plain word (e.g. ``''``)."""
+    """``path.key``, or ``path[<repr>]`` for a key that is not a plain word (e.g. ``''``).
+
+    Parameters
+    ----------
+    path : str
+        Path of the mapping (``""`` at the top level).
+    key : any
+        The key.
+
+    Returns
+    -------
+    str
+        The dotted path of the key.
+
+    Examples
+    --------
+    >>> key_path("links", "coupler"), key_path("", "time"), key_path("links", "")
+    ('links.coupler', 'time', "links['']")
+    """
     if isinstance(key, str) and re.fullmatch(r"\w+", key):
         return f"{path}.{key}" if path else key
     return f"{path}[{shown(key)}]"

@@ -58,11 +58,32 @@ COMPUTED_SECTION_KEYS = ("area", "second_moment", "shear_coefficient")
 
 _RTOL = 1e-9
 
+
 _E = Real(low=0.0, low_open=True, unit="Pa")
 _RHO = Real(low=0.0, low_open=True, unit="kg/m^3")
 _NU = Real(low=-1.0, high=0.5, low_open=True, high_open=True)
 _YIELD = Real(low=0.0, low_open=True, unit="Pa")
 _SIZE = Real(low=0.0, low_open=True, unit="m")
+
+#: Inline-material keys: (check, default, one line of meaning), for the generated scene
+#: reference (:mod:`ced.problem.reference`); the checks are the ones :func:`resolve_material`
+#: applies.
+MATERIAL_FIELDS = {
+    "name": (Text(nonempty=True), "inline(E=…,rho=…,nu=…)",
+             "label of the material (the case coordinate material)"),
+    "source": (Text(), None, "where the values come from (free text)"),
+    "E": (_E, "required", "Young's modulus"),
+    "rho": (_RHO, "required", "density"),
+    "nu": (_NU, "required", "Poisson's ratio"),
+    "yield_strength": (_YIELD, None, "yield strength, for the study's stress utilisation"),
+}
+#: Section keys: (check, default, one line of meaning), as :func:`section_properties` checks.
+SECTION_FIELDS = {
+    "shape": (Choice(tuple(SECTION_SHAPES)), "required", "decides which sizes are needed"),
+    "height": (_SIZE, "required for a rectangle", "rectangle: in-plane size, the bending depth"),
+    "width": (_SIZE, "required for a rectangle", "rectangle: out-of-plane size"),
+    "diameter": (_SIZE, "required for a circle", "circle: diameter of the solid round section"),
+}
 
 
 # --------------------------------------------------------------------------------- library
@@ -202,7 +223,26 @@ def _check_consistent(spec: Mapping, computed: Mapping[str, float], path: str,
 
 # -------------------------------------------------------------------------------- sections
 def cowper_shear_coefficient(shape: str, nu: float) -> float:
-    """Cowper's (1966) Timoshenko shear coefficient of a rectangle or a solid circle."""
+    """Cowper's (1966) Timoshenko shear coefficient of a rectangle or a solid circle.
+
+    Parameters
+    ----------
+    shape : str
+        ``rectangle`` or ``circle``.
+    nu : float
+        Poisson's ratio (dimensionless).
+
+    Returns
+    -------
+    float
+        The shear coefficient k (dimensionless): 10(1 + ν)/(12 + 11ν) for the rectangle,
+        6(1 + ν)/(7 + 6ν) for the solid circle.
+
+    Examples
+    --------
+    >>> round(cowper_shear_coefficient("rectangle", 0.0), 4)
+    0.8333
+    """
     if shape == "rectangle":
         return 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu)
     if shape == "circle":

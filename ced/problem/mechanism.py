@@ -1,6 +1,6 @@
 """Mechanism geometry: topology, Grashof classification, input limits and transmission criteria.
 
-Four-bar naming (DESIGN §3): ground pivots A = (0, 0) and D = (ground, 0); links crank (A→B),
+Four-bar naming (docs/theory.md, docs/guide/first_scene.md): ground pivots A = (0, 0) and D = (ground, 0); links crank (A→B),
 coupler (B→C), rocker (D→C). Slider-crank: crank (A→B), rod (B→C), slider at C on a guide
 parallel to x at signed ``offset``. Single link: one link A→B driven about A, free tip B.
 
@@ -28,7 +28,7 @@ __all__ = [
     "NEAR_SINGULAR_SIN",
 ]
 
-#: Relative tolerance for the Grashof equality S + L = P + Q (DESIGN §3).
+#: Relative tolerance for the Grashof equality S + L = P + Q.
 GRASHOF_RTOL = 1e-9
 
 FAMILIES = (
@@ -94,7 +94,24 @@ _TOPOLOGIES = {
 
 
 def topology(mechanism_type: str) -> Topology:
-    """Return the :class:`Topology` of ``four_bar``, ``slider_crank`` or ``single_link``."""
+    """Return the :class:`Topology` of ``four_bar``, ``slider_crank`` or ``single_link``.
+
+    Parameters
+    ----------
+    mechanism_type : str
+        ``four_bar``, ``slider_crank`` or ``single_link``.
+
+    Returns
+    -------
+    Topology
+        Links (with their first and second joints), joints (with the bodies they connect),
+        ground joints and the input link.
+
+    Examples
+    --------
+    >>> topology("four_bar").link_names
+    ['crank', 'coupler', 'rocker']
+    """
     try:
         return _TOPOLOGIES[mechanism_type]
     except KeyError:
@@ -108,7 +125,7 @@ def _close(x: float, y: float) -> bool:
 
 
 def classify(ground: float, crank: float, coupler: float, rocker: float) -> str:
-    """Grashof family of a four-bar (thesis I.1.1, DESIGN §3).
+    """Grashof family of a four-bar (thesis I.1.1).
 
     Parameters
     ----------
@@ -177,6 +194,17 @@ def input_limits(ground: float, crank: float, coupler: float, rocker: float) -> 
     The distance d = |BD| = sqrt(a² + g² − 2ag cos θ) must lie in [|b − c|, b + c] for the dyad
     B–C–D to close; d grows with |θ| on [0, π], so the feasible set is θ_min ≤ |θ| ≤ θ_max.
     At the limits coupler and rocker are collinear (toggle positions).
+
+    Parameters
+    ----------
+    ground, crank, coupler, rocker : float
+        Link lengths, m.
+
+    Returns
+    -------
+    InputLimits
+        ``full_rotation`` (bool), and the input angle's ``lower`` and ``upper`` limits, rad (a
+        rocker input oscillates between them).
 
     Examples
     --------
@@ -306,9 +334,19 @@ def near_singular(ground, crank, coupler, rocker, initial_angle, amplitude) -> n
     (0.5, 0.35, 0.1, 0.45) at 99 % of its input range has sin μ = 0.127 and its lowest frozen
     frequency drops from 25.5 Hz to 3.6 Hz at the extremes, in proportion.
 
+    Parameters
+    ----------
+    ground, crank, coupler, rocker : array_like, (case,)
+        Link lengths, m.
+    initial_angle : array_like, (case,)
+        Input angle at t = 0, or the mid angle θ_mid of an oscillating input, rad.
+    amplitude : array_like, (case,)
+        Oscillation amplitude A of the input, rad; NaN for a fully rotating input.
+
     Returns
     -------
     ndarray of bool, (case,)
+        True where the structure comes near a toggle or change point.
     """
     return dyad_sine_min(ground, crank, coupler, rocker, initial_angle, amplitude) \
         < NEAR_SINGULAR_SIN

@@ -1,4 +1,4 @@
-"""Scene files: parse, validate and normalize (DESIGN §4).
+"""Scene files: parse, validate and normalize (docs/reference/scene.md is generated from here).
 
 :func:`load_scene` turns a scene (a YAML file or a mapping) into a new plain nested dict with
 every default filled in, every value checked and every derived quantity (resolved materials,
@@ -78,7 +78,7 @@ AUTO = "auto"
 SCENE_KEYS = ("name", "mechanism", "links", "point_masses", "drive", "effects", "gravity",
               "damping", "discretization", "time", "modal", "outputs", "tolerance")
 
-#: The link every scene starts from (DESIGN §4).
+#: The link every scene starts from.
 BUILTIN_LINK = {"material": "steel",
                 "section": {"shape": "rectangle", "height": 0.005, "width": 0.01},
                 "flexible": True}
@@ -171,9 +171,85 @@ MODEL_PARAMETERS = {
                             "generalized_alpha": ("rho_inf",), "houbolt": ()}),
 }
 
-_POINT_MASS = Real(low=0.0, unit="kg")
+#: One line of meaning per scene key, by dotted path (``<link>`` and ``<joint>`` stand for any
+#: link or joint name of the mechanism). The scene reference of the documentation
+#: (:mod:`ced.problem.reference`) is generated from these and the spec above; a key of the spec
+#: without a meaning here fails the build of that reference.
+MEANINGS: dict[str, str] = {
+    "name": "free label of the scene, stored as the case coordinate scene_name",
+    "mechanism.type": "kind of linkage; the other mechanism keys depend on it",
+    "mechanism.four_bar.ground": "distance between the ground pivots A and D",
+    "mechanism.four_bar.crank": "length of the input link A→B",
+    "mechanism.four_bar.coupler": "length of the coupler B→C",
+    "mechanism.four_bar.rocker": "length of the output link D→C",
+    "mechanism.four_bar.branch": "assembly branch: open puts C on the left of B→D at the start",
+    "mechanism.slider_crank.crank": "length of the crank A→B",
+    "mechanism.slider_crank.rod": "length of the connecting rod B→C",
+    "mechanism.slider_crank.offset": "signed distance of the slider's guide from the x-axis "
+                                     "through A",
+    "mechanism.slider_crank.slider_mass": "mass of the slider at C",
+    "mechanism.slider_crank.branch": "assembly branch of the rod (open or crossed)",
+    "mechanism.single_link.length": "length of the one link, driven about a ground pivot with "
+                                    "a free tip (for verification)",
+    "links.default": "properties every link inherits, key by key, unless the link overrides them",
+    "links.<link>.material": "a library material name, or an inline {E, rho, nu[, "
+                             "yield_strength, name, source]} mapping",
+    "links.<link>.section": "cross-section: {shape: rectangle, height, width} or "
+                            "{shape: circle, diameter}",
+    "links.<link>.flexible": "false makes the link a rigid body (three small-motion DOFs)",
+    "point_masses.<joint>": "point mass at a joint, carried by the second body of the joint",
+    "drive.speed": "input speed Ω: constant crank speed, or the angular frequency of a "
+                   "rocker input's oscillation",
+    "drive.initial_angle": "input angle at t = 0 (crank-input families)",
+    "drive.amplitude": "rocker-input families: θ = θ_mid + A sin(Ωt) with A this fraction of "
+                       "half the feasible input range",
+    "effects": "the physical terms built into the model (each adds one group of terms), or auto "
+               "to choose them for the tolerance",
+    "gravity": "gravity vector [gx, gy] used by the gravity effect",
+    "damping.model": "modal: one damping ratio for every mode; rayleigh: C = αM + βK",
+    "damping.ratio": "modal damping ratio (used with model modal)",
+    "damping.alpha": "Rayleigh mass-proportional coefficient α (used with model rayleigh)",
+    "damping.beta": "Rayleigh stiffness-proportional coefficient β (used with model rayleigh)",
+    "discretization": "the finite-element model of the flexible links, or auto to choose "
+                      "elements and steps for the tolerance",
+    "discretization.formulation": "link model: beam (euler_bernoulli, timoshenko), the thesis's "
+                                  "seed_lame, 2-D plane_stress, or rigid (no elastic DOFs)",
+    "discretization.elements_per_link": "finite elements along each flexible link",
+    "discretization.elements_across": "elements across the link's height (plane_stress only)",
+    "discretization.modes_per_link": "Craig–Bampton reduction: fixed-interface modes kept per "
+                                     "flexible link (0: no reduction)",
+    "time.revolutions": "simulated duration, in periods of the input motion",
+    "time.steps_per_revolution": "time steps per input period",
+    "time.integrator": "time-integration scheme",
+    "time.rho_inf": "spectral radius at infinite frequency (generalized_alpha: 1 keeps every "
+                    "frequency, smaller values damp the highest ones)",
+    "time.beta": "Newmark β (used with newmark; 0.25 with γ 0.5 is the average acceleration "
+                 "rule)",
+    "time.gamma": "Newmark γ (used with newmark)",
+    "time.alpha": "HHT α (used with hht)",
+    "time.start": "initial elastic state: undeformed (q = q̇ = 0), quasi_static, or periodic "
+                  "(the periodic steady state by shooting, with Floquet multipliers)",
+    "modal": "natural frequencies of the frozen linkage over the cycle; absent or null: none",
+    "modal.modes": "number of natural frequencies computed at each phase",
+    "modal.angles": "number of evenly spaced phases of the input cycle analysed",
+    "modal.mode_shapes": "accepted and kept in the normalized scene; mode shapes are not "
+                         "written to the dataset yet",
+    "outputs.stations": "evenly spaced points along each link where station fields are "
+                        "written (0 and 1 are the link's ends)",
+    "outputs.every": "write every n-th time step",
+    "outputs.error_estimate": "estimate each elastic case's discretization error from a coarser "
+                              "companion solution (costs one more, cheaper solve)",
+    "tolerance": "target relative error of the automatic choices (effects: auto, "
+                 "discretization: auto)",
+}
+
+POINT_MASS_CHECK = Real(low=0.0, unit="kg")
 _GRAVITY = Real(unit="m/s^2")
-_TOLERANCE = Real(low=0.0, high=1.0, low_open=True, high_open=True, unit="relative error")
+TOLERANCE_CHECK = Real(low=0.0, high=1.0, low_open=True, high_open=True, unit="relative error")
+NAME_CHECK = Text()
+#: Defaults of the top-level keys that are not blocks.
+DEFAULT_GRAVITY = [0.0, -9.81]
+DEFAULT_TOLERANCE = 1e-3
 
 
 # ------------------------------------------------------------------------------- checks
@@ -263,7 +339,7 @@ def _links(value: Any, names: tuple[str, ...]) -> dict:
 def _point_masses(value: Any, joints: tuple[str, ...]) -> dict:
     value = {} if value is None else value
     check_keys(value, "point_masses", joints, what="joint")
-    return {j: _POINT_MASS(value[j], f"point_masses.{j}") for j in joints if j in value}
+    return {j: POINT_MASS_CHECK(value[j], f"point_masses.{j}") for j in joints if j in value}
 
 
 def _effects(value: Any) -> list[str] | str:
@@ -315,12 +391,12 @@ def _normalize(raw: Any) -> dict:
     mechanism = _mechanism(raw["mechanism"])
     topo = topology(mechanism["type"])
 
-    scene: dict[str, Any] = {"name": Text()(raw.get("name", ""), "name"), "mechanism": mechanism}
+    scene: dict[str, Any] = {"name": NAME_CHECK(raw.get("name", ""), "name"), "mechanism": mechanism}
     scene["links"] = _links(raw.get("links"), tuple(topo.link_names))
     scene["point_masses"] = _point_masses(raw.get("point_masses"), tuple(topo.joint_names))
     scene["drive"] = _block(raw.get("drive"), "drive", BLOCKS["drive"])
     scene["effects"] = _effects(raw["effects"]) if "effects" in raw else list(DEFAULT_EFFECTS)
-    scene["gravity"] = _gravity(raw["gravity"]) if "gravity" in raw else [0.0, -9.81]
+    scene["gravity"] = _gravity(raw["gravity"]) if "gravity" in raw else list(DEFAULT_GRAVITY)
     scene["damping"] = _block(raw.get("damping"), "damping", BLOCKS["damping"])
     _unused_parameters(scene["damping"], "damping")
     disc = raw.get("discretization")
@@ -336,8 +412,8 @@ def _normalize(raw: Any) -> dict:
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])
-    scene["tolerance"] = _TOLERANCE(raw["tolerance"], "tolerance") if "tolerance" in raw \
-        else 1e-3
+    scene["tolerance"] = TOLERANCE_CHECK(raw["tolerance"], "tolerance") if "tolerance" in raw \
+        else DEFAULT_TOLERANCE
     _assembly(mechanism)
     return scene
 
@@ -355,7 +431,7 @@ def load_scene(source: str | os.PathLike | Mapping) -> dict:
     Returns
     -------
     dict
-        A new plain dict with every key of DESIGN §4 present (``modal`` is None when no modal
+        A new plain dict with every scene key present (``modal`` is None when no modal
         analysis is asked for), defaults filled, ``effects`` in canonical order, materials
         resolved (:func:`ced.problem.materials.resolve_material`) and section properties computed
         (:func:`ced.problem.materials.section_properties`) for every link of the mechanism.
@@ -386,11 +462,33 @@ def load_scene(source: str | os.PathLike | Mapping) -> dict:
 
 
 def dump_scene(scene: Mapping) -> str:
-    """Canonical JSON of a (normalized) scene: sorted keys, compact separators, no NaN."""
+    """Canonical JSON of a (normalized) scene: sorted keys, compact separators, no NaN.
+
+    Parameters
+    ----------
+    scene : mapping
+        A scene, normally as returned by :func:`load_scene`.
+
+    Returns
+    -------
+    str
+        The JSON text (equal scenes give equal text).
+    """
     return json.dumps(scene, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
                       allow_nan=False)
 
 
 def scene_hash(scene: Mapping) -> str:
-    """First 12 hex digits of the SHA-1 of :func:`dump_scene` (pass a normalized scene)."""
+    """First 12 hex digits of the SHA-1 of :func:`dump_scene` (pass a normalized scene).
+
+    Parameters
+    ----------
+    scene : mapping
+        A normalized scene (:func:`load_scene`).
+
+    Returns
+    -------
+    str
+        12 hexadecimal digits identifying the scene.
+    """
     return hashlib.sha1(dump_scene(scene).encode("utf-8")).hexdigest()[:12]

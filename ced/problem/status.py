@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-__all__ = ["STATUS_FLAGS", "STATUS_DTYPE", "STATUS_FILL", "status_code", "status_names"]
+__all__ = ["STATUS_FLAGS", "STATUS_MEANINGS", "STATUS_ADVICE", "STATUS_DTYPE", "STATUS_FILL",
+           "status_code", "status_names"]
 
 #: Bit of each status flag; "ok" is the absence of every other bit (CF flag_masks+flag_values).
 STATUS_FLAGS = {
@@ -38,6 +39,41 @@ STATUS_FLAGS = {
     # there (docs/fidelity.md: below 3, plane_stress), whatever the mesh.
     "thick_link": 256,
 }
+#: What each flag means, in one line (for the dataset reference and ``ced run``'s summary).
+STATUS_MEANINGS = {
+    "large_deflection": "a link's peak elastic deflection exceeds 1 % of its length: the "
+                        "linear (small-deflection) model is stretched",
+    "near_singular": "the linkage passes near a toggle or change point (|sin| of the "
+                     "transmission angle below 0.1): stiffness and results are sensitive there",
+    "resonant": "a crank harmonic falls in a mode's frequency band over the cycle, or a "
+                "Floquet multiplier near 1 dominates the periodic state",
+    "parametrically_unstable": "the periodic state's largest Floquet multiplier exceeds 1: "
+                               "vibrations grow from cycle to cycle",
+    "failed": "the case could not be solved or its results are not finite; `message` says why",
+    "not_assemblable": "the geometry cannot be assembled (study grid maps: no case there)",
+    "buckled": "the frozen structure has a negative eigenvalue at some phase (reported as a "
+               "negative natural_frequency)",
+    "tolerance_unmet": "discretization: auto could not reach the scene's tolerance; "
+                       "error_estimate says how far",
+    "thick_link": "a flexible beam link is shorter than 3 × its section height: beam theory "
+                  "does not hold",
+}
+#: What to do about each flag, in one line (the user guide's table).
+STATUS_ADVICE = {
+    "large_deflection": "stiffen the link (larger section) or lower the speed; the results "
+                        "are indicative only",
+    "near_singular": "avoid running at that geometry; check transmission angles, or read "
+                     "results near the toggle with care",
+    "resonant": "move the speed away from the resonance (Campbell diagram) or add damping",
+    "parametrically_unstable": "change speed or stiffness; add damping; the steady state "
+                               "does not exist",
+    "failed": "read `message`; CED_TRACEBACK=1 with `ced run` shows where",
+    "not_assemblable": "nothing: the grid point is not a linkage",
+    "buckled": "a link is compressed beyond its Euler load: stiffen it or lower the speed",
+    "tolerance_unmet": "loosen `tolerance` or set `discretization` by hand (finer elements "
+                       "and steps)",
+    "thick_link": "use `discretization.formulation: plane_stress` for that link geometry",
+}
 #: Integer type of ``status`` (the flags need 9 bits).
 STATUS_DTYPE = "uint16"
 #: ``status`` of a grid point without a case in the family maps (CF _FillValue).
@@ -45,7 +81,18 @@ STATUS_FILL = 65535
 
 
 def status_code(flags: Iterable[str]) -> int:
-    """Combine flag names into a status code (0 is ok)."""
+    """Combine flag names into a status code (0 is ok).
+
+    Parameters
+    ----------
+    flags : iterable of str
+        Flag names from :data:`STATUS_FLAGS`.
+
+    Returns
+    -------
+    int
+        The bit field (dimensionless).
+    """
     code = 0
     for name in flags:
         code |= STATUS_FLAGS[name]
@@ -53,6 +100,17 @@ def status_code(flags: Iterable[str]) -> int:
 
 
 def status_names(code: int) -> list[str]:
-    """Flag names set in a status code; ``["ok"]`` for 0."""
+    """Flag names set in a status code; ``["ok"]`` for 0.
+
+    Parameters
+    ----------
+    code : int
+        A case's ``status`` value.
+
+    Returns
+    -------
+    list of str
+        The names of the bits set, in the order of :data:`STATUS_FLAGS`.
+    """
     names = [n for n, bit in STATUS_FLAGS.items() if code & bit]
     return names or ["ok"]

@@ -84,7 +84,20 @@ _LOADERS = {"1.1": _Yaml11, "1.2": _Yaml12}
 def check_structure(value: Any, where: str) -> None:
     """Refuse a document nested deeper than :data:`MAX_DEPTH` or larger than
     :data:`MAX_NODES` values once shared parts (YAML aliases) are counted each time they
-    appear. Iterative: no recursion, and it stops at the first value over the limit."""
+    appear. Iterative: no recursion, and it stops at the first value over the limit.
+
+    Parameters
+    ----------
+    value : any
+        A parsed document (dicts, lists, scalars).
+    where : str
+        The key path of errors (``<scene>`` or ``<config>``).
+
+    Raises
+    ------
+    SceneError
+        At ``where``, if the document is too deep or too large.
+    """
     stack = [(value, 1)]
     count = 0
     while stack:

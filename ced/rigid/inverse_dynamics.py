@@ -2,7 +2,7 @@
 
 Newton–Euler for every moving body, written as one small linear system per (case, step) and
 solved batched. Unknowns: the force of every joint (on the body listed second by the body
-listed first, DESIGN §3), the slider guide's normal force and reaction moment, and the input
+listed first, docs/theory.md), the slider guide's normal force and reaction moment, and the input
 torque on the input link (the thesis sets the crank's moment equation to zero and so loses
 the driving torque, II.1 eq. 3; it is computed here).
 
@@ -174,6 +174,20 @@ def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.
     """dT/dt + dV/dt of the whole mechanism, W: Σ m v·(a − g) + I ω α over bodies and masses.
 
     Used to check the power balance P_input = input_torque × ω_input.
+
+    Parameters
+    ----------
+    motion : RigidMotion
+        The rigid motion (:mod:`ced.rigid.kinematics`).
+    bodies : BodyProperties
+        Masses (kg) and moments of inertia (kg m²) of links and point masses.
+    gravity : (2,) sequence of float
+        Gravity vector, m/s².
+
+    Returns
+    -------
+    ndarray, (case, step)
+        The rate of change of kinetic plus potential energy, W.
     """
     topo = motion.topology
     ncase = motion.time.shape[0]

@@ -245,6 +245,21 @@ def slider_crank(
 
     ``branch`` +1 (``open``) puts the slider on the +x side of B (cos θ_rod > 0), −1 on the −x
     side. Requires crank + |offset| < rod, so the rod never turns vertical.
+
+    Parameters
+    ----------
+    crank, rod, offset : ndarray, (case,)
+        Crank and rod lengths and the guide's signed offset, m.
+    motion : InputMotion
+        The input link's angle, angular velocity and acceleration over time (rad, rad/s,
+        rad/s²).
+    branch : ndarray, (case,)
+        +1 (``open``) or −1 (``crossed``).
+
+    Returns
+    -------
+    RigidMotion
+        Positions (m), velocities and accelerations of every link, joint and centre of mass.
     """
     a, b, e = (np.asarray(x, float)[:, None] for x in (crank, rod, offset))
     sigma = np.asarray(branch, float)[:, None]
@@ -277,7 +292,20 @@ def slider_crank(
 
 
 def single_link(length: np.ndarray, motion: InputMotion) -> RigidMotion:
-    """One link driven about the ground pivot A, free tip B."""
+    """One link driven about the ground pivot A, free tip B.
+
+    Parameters
+    ----------
+    length : ndarray, (case,)
+        Link length, m.
+    motion : InputMotion
+        The link's angle, angular velocity and acceleration over time (rad, rad/s, rad/s²).
+
+    Returns
+    -------
+    RigidMotion
+        Positions (m), velocities and accelerations of the link, its joints and centre of mass.
+    """
     L = np.asarray(length, float)[:, None, None]
     th, w, al = motion.angle, motion.velocity, motion.acceleration
     A = np.zeros(th.shape + (2,))

@@ -1,4 +1,7 @@
-"""The output dataset: one registry of variables, CF-1.12 metadata and provenance (DESIGN §5).
+"""The output dataset: one registry of variables, CF-1.12 metadata and provenance.
+
+The dataset is described variable by variable in the documentation's dataset reference
+(``docs/reference/dataset.md``), generated from this module by :func:`dataset_reference`.
 
 One registry (:data:`VARIABLES`) holds the dimensions, units and long name of every variable
 ced writes, so the solver only hands over arrays and the metadata stays in one place;
@@ -17,10 +20,11 @@ import xarray as xr
 
 from .. import __version__
 from ..problem.mechanism import topology
-from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
+from ..problem.status import STATUS_ADVICE, STATUS_DTYPE, STATUS_FLAGS, STATUS_MEANINGS
 from ..response.batch import Batch
 
-__all__ = ["VARIABLES", "make_dataset", "case_coordinates", "source_string"]
+__all__ = ["VARIABLES", "PRESENCE", "DIMENSIONS", "CASE_COORDINATES", "REFERENCES", "make_dataset",
+           "case_coordinates", "source_string", "dataset_reference"]
 
 _F64, _F32 = "float64", "float32"
 
@@ -77,6 +81,84 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "message": (("case",), "", "diagnostic message", "str"),
 }
 
+
+_ELASTIC = "elastic formulations (not `rigid`)"
+#: When each variable of :data:`VARIABLES` is in a dataset (for the generated dataset
+#: reference, ``docs/reference/dataset.md``; a variable without an entry fails its test).
+PRESENCE: dict[str, str] = {
+    "time": "always",
+    "crank_angle": "always",
+    "joint_position": "always",
+    "link_angle": "always",
+    "link_angular_velocity": "always",
+    "link_angular_acceleration": "always",
+    "joint_force": "always",
+    "guide_force": "slider-crank only",
+    "input_torque": "always",
+    "deflection": _ELASTIC,
+    "axial_displacement": _ELASTIC,
+    "bending_strain": _ELASTIC,
+    "axial_strain": _ELASTIC,
+    "stress": _ELASTIC,
+    "natural_frequency": "elastic formulations with a `modal` block",
+    "peak_deflection": _ELASTIC,
+    "peak_stress": _ELASTIC,
+    "dynamic_amplification": _ELASTIC,
+    "longitudinal_wave_speed": "formulation `seed_lame` (the thesis's wave analysis)",
+    "transverse_wave_speed": "formulation `seed_lame` (the thesis's wave analysis)",
+    "floquet_multiplier_max": "elastic formulations with `elastic_inertia` and "
+                              "`time.start: periodic`",
+    "solve_time": "always",
+    "discretization_auto": "when a scene of the run has `discretization: auto`",
+    "error_estimate": "elastic formulations unless every scene sets "
+                      "`outputs.error_estimate: false`; NaN where no estimate could be made",
+    "effects_auto": "when a scene of the run has `effects: auto`",
+    "status": "always (bit flags: `flag_masks`, `flag_meanings`)",
+    "message": "always (empty when the case is ok)",
+}
+
+#: The dataset's dimensions: meaning and when present (for the generated reference).
+DIMENSIONS: dict[str, tuple[str, str]] = {
+    "case": ("one per scene, in the order given; its coordinates describe each case", "always"),
+    "step": ("output time step (every `outputs.every`-th solver step)", "always"),
+    "link": ("link names of the mechanism (crank, coupler, rocker; crank, rod; link)",
+             "always"),
+    "joint": ("joint names (A, B, C, D; A, B, C; A, B)", "always"),
+    "axis": ("global axes x, y", "always"),
+    "station": ("normalized position along the link, 0 (first joint) to 1 (second), "
+                "`outputs.stations` evenly spaced values including 0.5", _ELASTIC),
+    "modal_angle": ("phase of the input cycle, rad, `modal.angles` evenly spaced values",
+                    "with `natural_frequency`"),
+    "mode": ("mode number 1, 2, … by ascending frequency", "with `natural_frequency`"),
+}
+
+#: Coordinates on ``case`` (:func:`case_coordinates`): name -> (units, long name, when).
+CASE_COORDINATES: dict[str, tuple[str, str, str]] = {
+    "family": ("", "mechanism family", "always"),
+    "scene_name": ("", "scene name", "always"),
+    "speed": ("rad s-1", "input speed", "always"),
+    "material": ("", "material of the first flexible link (of the crank if none is)", "always"),
+    "ground": ("m", "ground length", "four-bar"),
+    "crank": ("m", "crank length", "four-bar, slider-crank"),
+    "coupler": ("m", "coupler length", "four-bar"),
+    "rocker": ("m", "rocker length", "four-bar"),
+    "rod": ("m", "rod length", "slider-crank"),
+    "offset": ("m", "guide offset", "slider-crank"),
+    "slider_mass": ("kg", "slider mass", "slider-crank"),
+    "length": ("m", "link length", "single link"),
+    "section_height": ("m", "section height of the first flexible link",
+                       "rectangle and circle sections"),
+    "section_width": ("m", "section width of the first flexible link", "rectangle sections"),
+    "section_diameter": ("m", "section diameter of the first flexible link", "circle sections"),
+}
+
+#: The global ``references`` attribute: what a reader of a dataset can look up.
+REFERENCES = (
+    "ced documentation (docs/ in the ced repository: user guide, theory, dataset reference); "
+    "D. J. A. Belenliga (1990), Analyse cinéto-élasto-dynamique des mécanismes plans à l'aide "
+    "de la méthode des éléments finis, projet de fin d'études, École Polytechnique de Thiès; "
+    "J. Chung and G. M. Hulbert (1993), J. Appl. Mech. 60:371-375 (generalized-alpha); "
+    "R. R. Craig and M. C. C. Bampton (1968), AIAA J. 6:1313-1319 (component modes)")
 
 def _git_revision() -> str:
     here = Path(__file__).resolve().parent
@@ -145,9 +227,7 @@ def make_dataset(
         "institution": "ced developers",
         "source": source_string(),
         "history": f"{now} created by ced.simulate",
-        "references": "Belenliga (1990), Analyse cinéto-élasto-dynamique des mécanismes plans "
-        "à l'aide de la méthode des éléments finis, École Polytechnique de Thiès; "
-        "ced DESIGN.md",
+        "references": REFERENCES,
         "effects": " ".join(effects),
         "scenes": json.dumps(scenes, sort_keys=True, separators=(",", ":")),
     }
@@ -157,10 +237,23 @@ def make_dataset(
 
 
 def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
-    """Per-case parameters as coordinates on ``case`` (DESIGN §5): family, scene name, speed,
+    """Per-case parameters as coordinates on ``case`` (:data:`CASE_COORDINATES`): family, scene name, speed,
     material and section of the first flexible link, the mechanism's lengths.
 
     ``batches`` in the order they were solved; ``order`` restores the caller's case order.
+
+    Parameters
+    ----------
+    batches : list of Batch
+        The batches in the order they were solved.
+    order : ndarray of int, (case,)
+        Indices restoring the caller's order of the cases.
+
+    Returns
+    -------
+    dict
+        Coordinate name -> (``"case"``, values, attributes); units as in
+        :data:`CASE_COORDINATES` (m, kg, rad s-1).
     """
     scenes = [s for b in batches for s in b.scenes]
     speeds = np.concatenate([b.speed for b in batches])
@@ -192,3 +285,85 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
                 "case", np.array([s["links"][link]["section"][key] for s in scenes], float),
                 {"units": "m", "long_name": f"section {key} of the {link}"})
     return {k: (v[0], v[1][order], v[2]) for k, v in coords.items()}
+
+
+def dataset_reference() -> str:
+    """The dataset reference page (Markdown), generated from :data:`VARIABLES`,
+    :data:`PRESENCE`, :data:`DIMENSIONS`, :data:`CASE_COORDINATES` and the status flags.
+
+    Returns
+    -------
+    str
+        The text of ``docs/reference/dataset.md``, ending with a newline.
+
+    Raises
+    ------
+    KeyError
+        If a variable has no :data:`PRESENCE` entry or uses a dimension missing from
+        :data:`DIMENSIONS`.
+    """
+    from ..problem.reference import markdown_table
+
+    dims = [[name, meaning, when] for name, (meaning, when) in DIMENSIONS.items()]
+    coords = [[name, units or "—", long_name, when]
+              for name, (units, long_name, when) in CASE_COORDINATES.items()]
+    variables = []
+    for name, (vdims, units, long_name, dtype) in VARIABLES.items():
+        for dim in vdims:
+            DIMENSIONS[dim]  # noqa: B018 — every dimension is documented
+        variables.append([name, "(" + ", ".join(vdims) + ")", units or "—",
+                          "text" if dtype == "str" else dtype, long_name, PRESENCE[name]])
+    flags = [["ok", "0", "no flag set", "nothing"]] + [
+        [name, str(bit), STATUS_MEANINGS[name], STATUS_ADVICE[name]]
+        for name, bit in STATUS_FLAGS.items()]
+    parts = [
+        "# Dataset reference",
+        "",
+        "<!-- Generated by `make reference` from "
+        "`ced/simulation/dataset.py` and `ced/problem/status.py`; do not edit by hand "
+        "(`tests/test_docs_reference.py` fails when this page is out of date). -->",
+        "",
+        "`ced run`, `ced.simulate` and every chunk of a study write one CF-1.12 netCDF dataset "
+        "(open it with `xarray.open_dataset`). Units follow UDUNITS (`rad s-1`); `1` is "
+        "dimensionless; text variables have no units. Station fields are stored as float32, "
+        "everything else as float64.",
+        "",
+        "## Dimensions",
+        "",
+        markdown_table(["dimension", "meaning", "present"], dims),
+        "",
+        "## Coordinates on `case`",
+        "",
+        "Each case is described by its parameters, as coordinates along `case` (select with "
+        "`ds.where(ds.family == 'crank_rocker', drop=True)` or `ds.swap_dims(case='speed')`). "
+        "The dimension coordinates are `case` (index), `step` (solver step index), `link`, "
+        "`joint`, `axis` (x, y), `station` (0…1), `modal_angle` (rad) and `mode`.",
+        "",
+        markdown_table(["coordinate", "units", "meaning", "present"], coords),
+        "",
+        "## Variables",
+        "",
+        markdown_table(["variable", "dims", "units", "type", "meaning", "present"], variables),
+        "",
+        "## `status` flags",
+        "",
+        "`status` is a bit field (CF `flag_masks`, `flag_meanings`); a case is `ok` when no "
+        "bit is set. Read it with `ced.problem.status.status_names(int(code))`.",
+        "",
+        "<!-- status flags: start -->",
+        "",
+        markdown_table(["flag", "bit", "meaning", "what to do"], flags),
+        "",
+        "<!-- status flags: end -->",
+        "",
+        "## Global attributes",
+        "",
+        "`Conventions` (CF-1.12), `title`, `institution`, `source` (ced version and git "
+        "revision), `history` (creation time), `references`, `effects` (the effects "
+        "simulated, space-separated) and `scenes` (the normalized scene of every case, as "
+        "JSON: `json.loads(ds.attrs['scenes'])`). The `references` attribute reads:",
+        "",
+        f"> {REFERENCES}",
+        "",
+    ]
+    return "\n".join(parts)

@@ -1,4 +1,5 @@
-"""What a run asks of the machine, estimated before any work: output bytes and peak memory.
+"""What a run asks of the machine, estimated before any work: output bytes, peak memory and
+run time.
 
 ``ced check`` sizes a study with it (:mod:`ced.study.config`) and :func:`ced.simulate` refuses
 a set of scenes whose estimated peak memory exceeds this machine's
@@ -7,15 +8,17 @@ that would exhaust the memory hours later.
 """
 from __future__ import annotations
 
+import math
 import os
 
 from ..problem.errors import SceneError
 from ..problem.mechanism import topology
 from ..response.batch import step_count
 
-__all__ = ["case_bytes", "solver_bytes", "case_memory", "run_memory", "check_run_memory",
-           "cases_per_solve", "machine_memory", "size_text", "WORKING_MEMORY_FACTOR",
-           "BASE_MEMORY_BYTES", "SOLVER_BUDGET_BYTES", "MAX_CASES_PER_SOLVE"]
+__all__ = ["case_bytes", "elastic_dofs", "case_seconds", "solver_bytes", "case_memory",
+           "run_memory", "check_run_memory", "cases_per_solve", "machine_memory", "size_text",
+           "WORKING_MEMORY_FACTOR", "BASE_MEMORY_BYTES", "SOLVER_BUDGET_BYTES",
+           "MAX_CASES_PER_SOLVE"]
 
 #: Peak memory of a chunk job ≈ BASE + FACTOR × chunk_size × (in-memory bytes of one case):
 #: the solver's float64 arrays, their concatenation across batches and the dataset handed to
@@ -27,7 +30,7 @@ BASE_MEMORY_BYTES = 300 * 2**20
 
 
 def case_bytes(scene: dict, itemsize: int = 4) -> int:
-    """Bytes of one case's output variables (DESIGN §5), uncompressed.
+    """Bytes of one case's output variables (docs/reference/dataset.md), uncompressed.
 
     With S output steps (``revolutions × steps_per_revolution // every + 1``), L links,
     J joints, P stations, A modal angles, M modes, g = 1 for a slider-crank (guide force), e = 1
@@ -73,9 +76,20 @@ def machine_memory() -> int:
 _DOFS_PER_ELEMENT = {"euler_bernoulli": 3, "timoshenko": 3, "seed_lame": 5, "plane_stress": 16}
 
 
-def _dofs(scene: dict) -> int:
+def elastic_dofs(scene: dict) -> int:
     """Elastic DOFs of a scene's model, roughly (an upper bound; ``auto`` counts its finest
-    ladder rung, 128 elements)."""
+    ladder rung, 128 elements).
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Elastic degrees of freedom of the flexible links (0 for ``rigid``).
+    """
     disc = scene["discretization"]
     if disc == "auto":
         disc = {"formulation": "euler_bernoulli", "elements_per_link": 128,
@@ -95,8 +109,19 @@ def solver_bytes(scene: dict) -> int:
     one period (:mod:`ced.response.period_terms`: M, C, K, their step factorizations and the
     projection, 8·P·(5n² + n) for P steps per revolution and n DOFs); the modal analysis holds K
     and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
-    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns."""
-    n = _dofs(scene)
+    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
+    n = elastic_dofs(scene)
     if not n:
         return 0
     modal = scene.get("modal") or {"angles": 0}
@@ -123,7 +148,18 @@ def cases_per_solve(scene: dict) -> int:
 def case_memory(scene: dict) -> int:
     """Peak memory one case's outputs add to a run, bytes: ``WORKING_MEMORY_FACTOR ×
     case_bytes(itemsize=8)`` (the solver's working arrays are bounded per part, see
-    :func:`run_memory`)."""
+    :func:`run_memory`).
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
     return WORKING_MEMORY_FACTOR * case_bytes(scene, itemsize=8)
 
 
@@ -151,7 +187,20 @@ def run_memory(scenes: list[dict]) -> tuple[int, str]:
     """Estimated peak memory of solving ``scenes`` together, bytes: ``BASE_MEMORY_BYTES + Σ
     case_memory`` plus the largest part's solver arrays (:func:`cases_per_solve` cases of
     :func:`solver_bytes`); and the scene key that drives it (the one furthest above its
-    default)."""
+    default).
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes solved together.
+
+    Returns
+    -------
+    bytes : int
+        Estimated peak memory.
+    key : str
+        Dotted scene key that drives it (``time.steps_per_revolution``, …).
+    """
     solver = max((solver_bytes(s) * min(cases_per_solve(s), len(scenes)) for s in scenes),
                  default=0)
     return (BASE_MEMORY_BYTES + sum(case_memory(s) for s in scenes) + solver,
@@ -160,7 +209,25 @@ def run_memory(scenes: list[dict]) -> tuple[int, str]:
 
 def check_run_memory(scenes: list[dict], memory: int | None = None) -> int:
     """Refuse scenes whose estimated peak memory (:func:`run_memory`) exceeds ``memory``
-    (default: this machine's, :func:`machine_memory`); return the estimate, bytes."""
+    (default: this machine's, :func:`machine_memory`); return the estimate, bytes.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes solved together.
+    memory : int, optional
+        Memory available, bytes.
+
+    Returns
+    -------
+    int
+        The estimated peak memory, bytes.
+
+    Raises
+    ------
+    SceneError
+        At the scene key that drives the estimate, when it exceeds ``memory``.
+    """
     need, key = run_memory(scenes)
     memory = machine_memory() if memory is None else memory
     if need > memory:
@@ -171,9 +238,101 @@ def check_run_memory(scenes: list[dict], memory: int | None = None) -> int:
 
 
 def size_text(n: float) -> str:
-    """``1.2 GB`` (decimal units) for a byte count."""
+    """``1.2 GB`` (decimal units) for a byte count.
+
+    Parameters
+    ----------
+    n : float
+        A size, bytes.
+
+    Returns
+    -------
+    str
+        Three significant digits and a decimal unit.
+
+    Examples
+    --------
+    >>> size_text(1234), size_text(2.5e9)
+    ('1.23 kB', '2.5 GB')
+    """
     for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
         if n < 1000 or unit == "PB":
             return f"{n:.3g} {unit}"
         n /= 1000
     raise AssertionError
+
+
+# ------------------------------------------------------------------------------ run time
+# Measured cost model of one case inside a vectorized batch, one core, one BLAS thread, by
+# benchmarks/calibrate_cost.py (batches of 8 reference four-bars with a flexible coupler and
+# rocker, 1 revolution of 128 steps, fastest of 2 runs; 2026-11-24, this project's 2-core
+# machine). Re-measure when the solver changes; benchmarks/estimate_check.py compares the
+# resulting study estimate with a measured run of config/studies/test.yaml.
+#: Rigid analysis (kinematics, inverse dynamics, dataset), s per case per time step.
+COST_RIGID_STEP = 2.19e-05
+#: Elastic response marching from rest, s per case per time step, at n elastic DOFs: (n, s).
+COST_STEP_UNDEFORMED = ((6, 9.8e-05), (12, 0.00011), (24, 0.00016), (48, 0.000373),
+                        (96, 0.00131))
+#: The same over one revolution with ``start: periodic`` (marching plus shooting), (n, s).
+COST_STEP_PERIODIC = ((6, 0.000132), (12, 0.000152), (24, 0.000326), (48, 0.000991),
+                      (96, 0.00395))
+#: Modal analysis, s per case per modal angle (4 modes), (n, s).
+COST_MODAL_ANGLE = ((12, 8.05e-05), (48, 0.000374))
+#: Factor on a case's cost for its error estimate (the coarser or finer companion solution).
+COST_ERROR_ESTIMATE = 3.59
+
+
+def _interpolate(table: tuple, n: float) -> float:
+    """Log-log interpolation in a measured (n, cost) table, extrapolated with the end slopes."""
+    xs = [math.log(x) for x, _ in table]
+    ys = [math.log(y) for _, y in table]
+    x = math.log(max(n, 1.0))
+    i = 1 if x <= xs[0] else len(xs) - 1 if x >= xs[-1] else \
+        next(k for k in range(1, len(xs)) if x <= xs[k])
+    slope = (ys[i] - ys[i - 1]) / (xs[i] - xs[i - 1])
+    return math.exp(ys[i - 1] + slope * (x - xs[i - 1]))
+
+
+def case_seconds(scene: dict) -> float:
+    """Estimated solve time of one case in a vectorized batch, one core, s.
+
+    From the measured tables above: the rigid analysis per step; the elastic response per
+    step at the model's elastic DOFs (:func:`elastic_dofs`), with the periodic start's extra
+    cost over one revolution; the modal analysis per angle; times
+    :data:`COST_ERROR_ESTIMATE` when the case's error is estimated. An estimate within a
+    factor of about two: the machine's load and the scene's effects are not modelled.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    float
+        Seconds.
+
+    Examples
+    --------
+    >>> from ced.problem.scene import load_scene
+    >>> rigid = load_scene({"mechanism": {"type": "single_link", "length": 0.5},
+    ...                     "discretization": {"formulation": "rigid"}})
+    >>> round(case_seconds(rigid), 4)  # 1025 steps x 2.19e-05 s
+    0.0224
+    """
+    steps = step_count(scene) + 1
+    seconds = COST_RIGID_STEP * steps
+    n = elastic_dofs(scene)
+    if not n:
+        return seconds
+    elastic = _interpolate(COST_STEP_UNDEFORMED, n) * steps
+    time_ = scene["time"]
+    if time_["start"] == "periodic":
+        extra = _interpolate(COST_STEP_PERIODIC, n) - _interpolate(COST_STEP_UNDEFORMED, n)
+        elastic += max(extra, 0.0) * (time_["steps_per_revolution"] + 1)
+    modal = scene.get("modal")
+    if modal:
+        elastic += _interpolate(COST_MODAL_ANGLE, n) * modal["angles"]
+    if scene["outputs"]["error_estimate"]:
+        elastic *= COST_ERROR_ESTIMATE
+    return seconds + elastic

@@ -1,6 +1,6 @@
 """The case table of a study config and its chunks.
 
-The case table is a pure, deterministic function of the config (DESIGN §6): the cartesian
+The case table is a pure, deterministic function of the config (docs/reference/config.md): the cartesian
 product of the grids, each geometry classified (Grashof) into its family, filtered by the
 families to keep, in a fixed order (mechanism type, then the length grids in the order of
 :data:`GRID_KEYS`, then speed, material, section). A case's id is its position among the
@@ -117,7 +117,18 @@ def grid_values(spec, path: str = "grid") -> list[float]:
 
 def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
     """(mechanism type, family, lengths) of every assemblable geometry of the grids, in table
-    order, whatever the families kept."""
+    order, whatever the families kept.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of (str, str, dict)
+        Mechanism type, family and lengths (m) of each geometry.
+    """
     out = []
     for kind, keys in GRID_KEYS.items():
         grid = config.get("grids", {}).get(kind)
@@ -137,20 +148,53 @@ def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
 
 
 def kept_geometries(config: dict) -> list[tuple[str, str, dict]]:
-    """(mechanism type, family, lengths) of every assemblable geometry kept, in table order."""
+    """(mechanism type, family, lengths) of every assemblable geometry kept, in table order.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of (str, str, dict)
+        Mechanism type, family and lengths (m) of each geometry.
+    """
     keep = set(config.get("families", FAMILIES))
     return [g for g in assemblable_geometries(config) if g[1] in keep]
 
 
 def inner_points(config: dict) -> list[tuple[float, int, int]]:
-    """(speed, material index, section index) of each case of one geometry, in table order."""
+    """(speed, material index, section index) of each case of one geometry, in table order.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of (float, int, int)
+        Speed (rad/s), material index and section index.
+    """
     speeds = grid_values(config["speeds"], "speeds")
     return list(itertools.product(
         speeds, range(len(config["materials"])), range(len(config["sections"]))))
 
 
 def material_names(config: dict) -> list[str]:
-    """Resolved names of the study's materials (library aliases mapped to the library name)."""
+    """Resolved names of the study's materials (library aliases mapped to the library name).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of str
+        One name per entry of ``config["materials"]``.
+    """
     return [resolve_material(m, f"materials[{i}]")["name"]
             for i, m in enumerate(config["materials"])]
 
@@ -158,7 +202,28 @@ def material_names(config: dict) -> list[str]:
 def scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
                section: dict) -> dict:
     """The (un-normalized) scene of one case: the base scene with the case's mechanism,
-    material (of every link, through ``links.default``), section and speed."""
+    material (of every link, through ``links.default``), section and speed.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    kind : str
+        Mechanism type.
+    lengths : dict
+        Mechanism lengths (and slider mass), m (kg).
+    speed : float
+        Input speed, rad/s.
+    material : str or dict
+        Library name or inline material.
+    section : dict
+        Cross-section.
+
+    Returns
+    -------
+    dict
+        A scene for :func:`ced.problem.scene.load_scene`.
+    """
     base = copy.deepcopy(config.get("base_scene") or {})
     # Keys of a base mechanism block other than type and lengths (e.g. branch) carry over.
     mechanism = {k: v for k, v in (base.get("mechanism") or {}).items()
@@ -177,7 +242,30 @@ def scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
 
 def case_row(config: dict, kind: str, family: str, lengths: dict, case: int,
          inner: tuple[float, int, int], names: list[str], scene: bool) -> dict:
-    """One row of the case table (see :func:`case_table`)."""
+    """One row of the case table (see :func:`case_table`).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    kind, family : str
+        Mechanism type and family.
+    lengths : dict
+        Mechanism lengths, m.
+    case : int
+        Case id within the family.
+    inner : (float, int, int)
+        Speed (rad/s), material index, section index.
+    names : list of str
+        Resolved material names (:func:`material_names`).
+    scene : bool
+        Whether to build the row's scene.
+
+    Returns
+    -------
+    dict
+        The row.
+    """
     speed, m, s = inner
     material = config["materials"][m]
     row = {"case": case, "family": family, "mechanism": kind, **lengths, "speed": speed,
@@ -194,6 +282,20 @@ def case_table(config: dict, family: str | None = None, *, scenes: bool = True) 
     ``speed``, ``material`` (resolved name), ``material_index``, ``section`` (index into the
     config's sections) and, if ``scenes``, ``scene`` (an un-normalized scene dict). Linkages
     that cannot be assembled are dropped, as are families not in ``config["families"]``.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    family : str, optional
+        Only this family's cases.
+    scenes : bool
+        Whether to build each row's scene (slower).
+
+    Returns
+    -------
+    list of dict
+        The rows.
     """
     inner, names = inner_points(config), material_names(config)
     counters: dict[str, int] = {}
@@ -209,7 +311,18 @@ def case_table(config: dict, family: str | None = None, *, scenes: bool = True) 
 
 
 def family_sizes(config: dict) -> dict[str, int]:
-    """Number of cases of each family present in the study (families in table order)."""
+    """Number of cases of each family present in the study (families in table order).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    dict of str to int
+        Cases per family.
+    """
     n = len(inner_points(config))
     sizes: dict[str, int] = {}
     for _, family, _ in kept_geometries(config):
@@ -218,18 +331,57 @@ def family_sizes(config: dict) -> dict[str, int]:
 
 
 def study_size(config: dict) -> int:
-    """Number of grid points before assembly check and classification (:func:`grid_points`)."""
+    """Number of grid points before assembly check and classification (:func:`grid_points`).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    int
+        Grid points.
+    """
     return grid_points(config)
 
 
 def chunks(config: dict) -> dict[str, int]:
-    """Number of chunks of each family present in the study."""
+    """Number of chunks of each family present in the study.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    dict of str to int
+        Chunk jobs per family (``ceil(cases / chunk_size)``).
+    """
     size = int(config["chunk_size"])
     return {f: math.ceil(n / size) for f, n in family_sizes(config).items()}
 
 
 def chunk_rows(config: dict, family: str, index: int, *, scenes: bool = True) -> list[dict]:
-    """Rows of chunk ``index`` of ``family`` (scenes are built for these rows only)."""
+    """Rows of chunk ``index`` of ``family`` (scenes are built for these rows only).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    family : str
+        The family.
+    index : int
+        The chunk's index within the family, from 0.
+    scenes : bool
+        Whether to build each row's scene.
+
+    Returns
+    -------
+    list of dict
+        The chunk's rows of :func:`case_table`.
+    """
     size = int(config["chunk_size"])
     inner, names = inner_points(config), material_names(config)
     geometries = [g for g in kept_geometries(config) if g[1] == family]
@@ -245,7 +397,22 @@ def chunk_rows(config: dict, family: str, index: int, *, scenes: bool = True) ->
 
 
 def chunk_scenes(config: dict, family: str, index: int) -> list[dict]:
-    """Scenes of chunk ``index`` of ``family``."""
+    """Scenes of chunk ``index`` of ``family``.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    family : str
+        The family.
+    index : int
+        The chunk's index within the family, from 0.
+
+    Returns
+    -------
+    list of dict
+        Un-normalized scenes, one per case.
+    """
     return [r["scene"] for r in chunk_rows(config, family, index)]
 
 
@@ -254,6 +421,16 @@ def case_config(config: dict) -> dict:
 
     Passed to the simulation jobs as their ``params``, so that editing the study name, the
     families kept or a reduction setting re-runs no simulation.
+
+    Parameters
+    ----------
+    config : dict
+        A study config.
+
+    Returns
+    -------
+    dict
+        The keys of :data:`CASE_KEYS` that ``config`` has.
     """
     return {k: copy.deepcopy(config[k]) for k in CASE_KEYS if k in config}
 
@@ -266,7 +443,17 @@ def _elastic(base: dict) -> bool:
 
 def modal_requested(config: dict) -> bool:
     """Whether the base scene asks for a modal analysis with an elastic formulation (the
-    study then has natural frequencies and Campbell diagrams)."""
+    study then has natural frequencies and Campbell diagrams).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    bool
+    """
     base = config.get("base_scene") or {}
     return bool(base.get("modal")) and _elastic(base)
 
@@ -280,14 +467,36 @@ def estimate_requested(config: dict) -> bool:
 
 
 def axis_length(spec) -> int:
-    """Number of values of one grid axis (:func:`grid_values`), without building them."""
+    """Number of values of one grid axis (:func:`grid_values`), without building them.
+
+    Parameters
+    ----------
+    spec : list or dict
+        A list of values or a range ``{start, stop, num}``.
+
+    Returns
+    -------
+    int
+        The number of values.
+    """
     if isinstance(spec, Mapping):
         return int(spec["num"])
     return len(spec) if isinstance(spec, (list, tuple)) else 1
 
 
 def grid_axes(config: dict) -> list[tuple[str, object]]:
-    """(key path, spec) of every axis of the study's grid, in case-table order."""
+    """(key path, spec) of every axis of the study's grid, in case-table order.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of (str, object)
+        Dotted key path (``grids.four_bar.crank``, ``speeds``, …) and the axis as written.
+    """
     axes = []
     for kind, keys in GRID_KEYS.items():
         grid = config.get("grids", {}).get(kind)
@@ -298,7 +507,18 @@ def grid_axes(config: dict) -> list[tuple[str, object]]:
 
 def grid_points(config: dict) -> int:
     """Cases before the assembly check and the family filter: Σ over mechanism types of the
-    product of their axis lengths, × speeds × materials × sections (nothing enumerated)."""
+    product of their axis lengths, × speeds × materials × sections (nothing enumerated).
+
+    Parameters
+    ----------
+    config : dict
+        A study config (schema-valid).
+
+    Returns
+    -------
+    int
+        Grid points.
+    """
     inner = axis_length(config["speeds"]) * len(config["materials"]) * len(config["sections"])
     total = 0
     for kind, keys in GRID_KEYS.items():

@@ -1,6 +1,8 @@
 """The job that simulates one chunk of a study and writes its dataset.
 
-One Snakemake job per (family, chunk) of many cases (rule ``simulate_chunk``).
+One Snakemake job per (family, chunk) of many cases (rule ``simulate_chunk``). Its log (stderr)
+gets one line per part of the chunk solved, with the estimated time left
+(:func:`ced.study.progress.simulate_in_parts`), and a summary line at the end.
 """
 from __future__ import annotations
 
@@ -13,8 +15,8 @@ import numpy as np
 
 from ..io import write_dataset
 from ..problem.status import STATUS_FLAGS
-from ..simulation.simulate import simulate
 from .cases import chunk_rows
+from .progress import simulate_in_parts
 
 __all__ = ["run_chunk"]
 
@@ -25,10 +27,29 @@ def run_chunk(config: dict, family: str, index: int, output: str | Path,
 
     The dataset's ``case`` coordinate is the case id within the family; ``section`` (index
     into the config's sections) is added as a case coordinate beside the section sizes.
+
+    Parameters
+    ----------
+    config : dict
+        The study config (or its case part, :func:`ced.study.cases.case_config`).
+    family : str
+        The family of the chunk.
+    index : int
+        The chunk's index within the family, from 0.
+    output : str or Path
+        The chunk's netCDF file.
+    study : str, optional
+        The study's name for the dataset's ``study`` attribute (default: ``config["study"]``).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     rows = chunk_rows(config, family, index)
     start = time.perf_counter()
-    ds = simulate([r["scene"] for r in rows])
+    ds = simulate_in_parts([r["scene"] for r in rows], desc=f"{family}/{index}",
+                           log=lambda line: print(line, file=sys.stderr, flush=True))
     elapsed = time.perf_counter() - start
     ds = ds.assign_coords(
         case=("case", np.array([r["case"] for r in rows]), ds.case.attrs),

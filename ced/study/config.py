@@ -26,6 +26,7 @@ ced.problem.errors.SceneError: speeds[1]: must be > 0, got -1.0
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import re
 from collections import Counter
@@ -37,8 +38,7 @@ from ..problem.errors import SceneError, join, key_path, shown
 from ..problem.mechanism import assembly_error
 from ..problem.scene import load_scene
 from ..problem.yaml_files import check_structure, load_yaml
-from ..simulation.size import (case_bytes, machine_memory,
-                               run_memory, size_text)
+from ..simulation.size import case_bytes, case_seconds, machine_memory, run_memory, size_text
 from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
                     grid_points, grid_values, inner_points, material_names, scene_for)
 from .convergence import load_sweep
@@ -53,6 +53,9 @@ __all__ = [
     "MAX_GRID_POINTS",
     "MAX_OUTPUT_BYTES",
     "SCHEMA_PATH",
+    "JOB_SECONDS",
+    "CHUNK_START_SECONDS",
+    "LADDER_SECONDS",
 ]
 
 #: Largest study accepted: grid points (cases before the assembly check and the family filter;
@@ -61,6 +64,16 @@ __all__ = [
 MAX_GRID_POINTS = 10_000_000
 #: Largest estimated output accepted (uncompressed netCDF variables of every chunk), bytes.
 MAX_OUTPUT_BYTES = 10 * 10**12
+#: Fixed cost of one Snakemake job, s: interpreter start, imports of numpy, xarray and ced,
+#: reading and writing. Measured on config/studies/test.yaml (2026-11-24, 2 cores under load):
+#: its figure and reduction jobs took 4-6 s, its chunk jobs 4.4-5.5 s of which 1.6-2.1 s in
+#: the first solve of 4 tiny cases (lazy imports, caches: CHUNK_START_SECONDS).
+#: benchmarks/estimate_check.py compares the whole estimate with a measured run.
+JOB_SECONDS = 4.5
+#: A chunk job's first solve beyond its cases' cost (lazy imports, caches), s.
+CHUNK_START_SECONDS = 1.0
+#: The fidelity ladder's job beyond JOB_SECONDS, s (one scene through every model).
+LADDER_SECONDS = 6.0
 #: The JSON schema of study configs (applied by :func:`validate_config`).
 SCHEMA_PATH = Path(__file__).resolve().parents[2] / "workflow" / "schemas" / "config.schema.yaml"
 
@@ -76,6 +89,16 @@ def load_config(path: str | Path) -> dict:
 
     Raises :class:`SceneError` at ``<config>`` for a file that cannot be read or parsed or
     whose top level is not a mapping.
+
+    Parameters
+    ----------
+    path : str or Path
+        The config file.
+
+    Returns
+    -------
+    dict
+        The config as read (not yet validated: :func:`validate_config`).
     """
     config = load_yaml(path, "<config>", "1.1")
     if not isinstance(config, dict):
@@ -173,6 +196,16 @@ def apply_schema(config: Mapping) -> dict:
     Defaults are set while validating (as ``snakemake.utils.validate`` does), so a default
     inside an optional block (``grids.slider_crank.offset``) appears only with the block.
     The first error (``jsonschema``'s best match) becomes a :class:`SceneError`.
+
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+
+    Returns
+    -------
+    dict
+        A checked copy with defaults filled in.
     """
     from jsonschema import Draft202012Validator, validators
     from jsonschema.exceptions import best_match
@@ -226,6 +259,15 @@ class StudyEstimate:
         Estimated peak memory of the largest chunk job:
         :func:`ced.simulation.size.run_memory` of its cases (the same estimate ``ced run`` and
         ``ced.simulate`` apply before any work).
+    case_seconds : dict of str to float
+        Estimated solve time of one case of each family, s
+        (:func:`ced.simulation.size.case_seconds` of the family's representative scene).
+    family_cases : dict of str to int
+        Cases of each family.
+    other_jobs : int
+        Snakemake jobs besides the chunks: per family its reduction, resonance map and
+        worst-case figure (and Campbell diagram with a modal analysis), and the study's
+        overview, safe-speed table and fidelity ladder.
     """
 
     grid_points: int
@@ -234,6 +276,25 @@ class StudyEstimate:
     output_bytes: int
     largest_chunk: int
     chunk_memory_bytes: int
+    case_seconds: dict = dataclasses.field(default_factory=dict)
+    other_jobs: int = 0
+    family_cases: dict = dataclasses.field(default_factory=dict)
+
+    def run_seconds(self, cores: int) -> float:
+        """Estimated wall time of the whole pipeline on ``cores`` cores, s.
+
+        Every job costs :data:`JOB_SECONDS` (interpreter, imports, writing) plus, for a chunk,
+        :data:`CHUNK_START_SECONDS` and its cases' solve time; the fidelity ladder
+        :data:`LADDER_SECONDS` more. Jobs share the
+        cores: the estimate is the total over the cores, but never less than the longest job.
+        Not counted: the optional convergence study.
+        """
+        chunk_jobs = [JOB_SECONDS + CHUNK_START_SECONDS + self.family_cases.get(f, 0) / n
+                      * self.case_seconds.get(f, 0.0)
+                      for f, n in self.chunks.items() for _ in range(n)]
+        other = [JOB_SECONDS] * max(self.other_jobs - 1, 0) + [JOB_SECONDS + LADDER_SECONDS]
+        jobs = chunk_jobs + other
+        return max(sum(jobs) / max(int(cores), 1), max(jobs))
 
     def summary(self) -> str:
         jobs = sum(self.chunks.values())
@@ -326,10 +387,13 @@ def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyE
     output = sum(n * case_bytes(scenes[kinds[f]]) for f, n in sizes.items())
     memory, largest = max((run_memory([scenes[kinds[f]]] * min(n, size))[0], min(n, size))
                           for f, n in sizes.items())
+    modal = any(scenes[kinds[f]].get("modal") for f in sizes)
     return StudyEstimate(
         grid_points=grid_points(config), cases=sum(sizes.values()),
         chunks={f: math.ceil(n / size) for f, n in sizes.items()}, output_bytes=output,
-        largest_chunk=largest, chunk_memory_bytes=memory)
+        largest_chunk=largest, chunk_memory_bytes=memory,
+        case_seconds={f: case_seconds(scenes[kinds[f]]) for f in sizes},
+        other_jobs=len(sizes) * (4 if modal else 3) + 3, family_cases=dict(sizes))
 
 
 #: A linkage of each mechanism type that can be assembled, to size a case before the grid is
@@ -424,6 +488,18 @@ def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
     (:data:`MAX_OUTPUT_BYTES`) and the peak memory of a chunk job (``memory``, bytes; default
     this machine's, :func:`machine_memory`). See :class:`StudyEstimate` for the estimates.
 
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+    memory : int, optional
+        Memory a chunk job may use, bytes (default: this machine's).
+
+    Returns
+    -------
+    dict
+        A validated copy with the schema defaults filled in.
+
     Raises
     ------
     SceneError
@@ -434,7 +510,20 @@ def validate_config(config: Mapping, *, memory: int | None = None) -> dict:
 
 
 def study_estimate(config: Mapping, *, memory: int | None = None) -> StudyEstimate:
-    """Validate ``config`` (:func:`validate_config`) and return its :class:`StudyEstimate`."""
+    """Validate ``config`` (:func:`validate_config`) and return its :class:`StudyEstimate`.
+
+    Parameters
+    ----------
+    config : mapping
+        A study config.
+    memory : int, optional
+        Memory a chunk job may use, bytes (default: this machine's).
+
+    Returns
+    -------
+    StudyEstimate
+        Cases, chunk jobs, output bytes, memory per chunk job and run-time model.
+    """
     return _validated(config, memory)[1]
 
 
@@ -443,6 +532,16 @@ def check_config(config: dict) -> dict[str, int]:
     ``snakemake.utils.validate`` does) and return :func:`chunks`.
 
     Everything :func:`validate_config` checks fails here, at parse time, before any job.
+
+    Parameters
+    ----------
+    config : dict
+        The config Snakemake read; replaced in place by the validated one.
+
+    Returns
+    -------
+    dict of str to int
+        Chunk jobs per family.
     """
     filled, estimate = _validated(config)
     config.clear()

@@ -1,4 +1,4 @@
-"""Convergence studies: what each step of accuracy costs in time (issue 6, DESIGN §7).
+"""Convergence studies: what each step of accuracy costs in time (issue 6, docs/accuracy.md).
 
 For a reference scene of each family, a sweep of discretizations (elements per link, steps per
 revolution, integrator, formulation, modal reduction) is solved; each setting is timed per case
@@ -105,7 +105,18 @@ def _as_list(value) -> list:
 
 def settings(sweep: dict) -> list[dict]:
     """The sweep's settings, each a dict of formulation, modes_per_link, integrator,
-    elements_per_link and steps_per_revolution (full factorial within each entry)."""
+    elements_per_link and steps_per_revolution (full factorial within each entry).
+
+    Parameters
+    ----------
+    sweep : dict
+        The ``convergence`` block of a study config (:func:`load_sweep`).
+
+    Returns
+    -------
+    list of dict
+        One dict per setting.
+    """
     keys = ("formulation", "modes_per_link", "integrator", "elements_per_link",
             "steps_per_revolution")
     out = []
@@ -186,6 +197,13 @@ def _reference(sweep: dict, family: str, formulation: str) -> dict[str, tuple[fl
 
 def run_family(sweep: dict, family: str) -> "xr.Dataset":
     """Solve the sweep on one family's reference scene; see the module docstring.
+
+    Parameters
+    ----------
+    sweep : dict
+        The ``convergence`` block (:func:`load_sweep`).
+    family : str
+        One of the sweep's families.
 
     Returns
     -------
@@ -328,7 +346,19 @@ def _auto_check(sweep: dict, family: str, frame: "pd.DataFrame", ref: dict,
 
 
 def accuracy_table(datasets: dict[str, "xr.Dataset"]) -> "pd.DataFrame":
-    """For each family and target, the cheapest setting whose peak-stress error meets it."""
+    """For each family and target, the cheapest setting whose peak-stress error meets it.
+
+    Parameters
+    ----------
+    datasets : dict of str to xarray.Dataset
+        Family -> its :func:`run_family` result.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per family and target relative error, with the setting, its error and its solve
+        time per case (s).
+    """
     import pandas as pd
 
     rows = []
@@ -354,7 +384,18 @@ def auto_table(datasets: dict[str, "xr.Dataset"]) -> "pd.DataFrame":
     """``discretization: auto`` per family and tolerance: the choice, its predicted and true
     error, and its cost against the cheapest sweep setting meeting the same tolerance
     (``cost_ratio``, times measured side by side). ``resolved`` is False where the family's
-    reference is uncertain by more than 1 % (its true errors are not known)."""
+    reference is uncertain by more than 1 % (its true errors are not known).
+
+    Parameters
+    ----------
+    datasets : dict of str to xarray.Dataset
+        Family -> its :func:`run_family` result.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per family and tolerance.
+    """
     import pandas as pd
 
     rows = []
@@ -387,6 +428,11 @@ def estimate_validation(datasets: dict[str, "xr.Dataset"]) -> dict[str, float]:
     to judge an estimate by (the uncertainty is itself an estimate), and so is every setting of
     a family whose reference is uncertain by more than 1 % (the change point, whose peak
     stress depends on how close a step comes to the singular position).
+
+    Parameters
+    ----------
+    datasets : dict of str to xarray.Dataset
+        Family -> its :func:`run_family` result.
     """
     est, true = [], []
     for ds in datasets.values():

@@ -42,7 +42,21 @@ _MARKERS = "osD^vP<>Xph*"
 
 
 def group_label(formulation: str, modes_per_link: int, integrator: str) -> str:
-    """Legend label of a (formulation, modes per link, integrator) group of settings."""
+    """Legend label of a (formulation, modes per link, integrator) group of settings.
+
+    Parameters
+    ----------
+    formulation : str
+        ``discretization.formulation``.
+    modes_per_link : int
+        ``discretization.modes_per_link`` (0: full FE model).
+    integrator : str
+        ``time.integrator``.
+
+    Returns
+    -------
+    str
+    """
     model = str(formulation)
     if int(modes_per_link) > 0:
         model += f" reduced {int(modes_per_link)} modes"
@@ -83,6 +97,19 @@ def pareto_front(time: np.ndarray, error: np.ndarray) -> np.ndarray:
     """Indices of the Pareto-optimal points (no other point is both faster and more accurate),
     sorted by time. Non-finite or non-positive values are left out.
 
+    Parameters
+    ----------
+    time : ndarray
+        Solve time of each point, s.
+    error : ndarray
+        Relative error of each point (dimensionless).
+
+    Returns
+    -------
+    ndarray of int
+
+    Examples
+    --------
     >>> pareto_front(np.array([1.0, 2.0, 3.0, 4.0]), np.array([0.1, 0.2, 0.01, 0.01])).tolist()
     [0, 2]
     """
@@ -121,6 +148,15 @@ def pareto_figure(ds: xr.Dataset) -> plt.Figure:
     time, and rings mark the cheapest sweep setting that meets each tolerance (none drawn where
     no setting does). Settings whose error is zero, negative or NaN (not drawable on a log
     axis) are counted in the panel's legend.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        One family's :func:`ced.study.convergence.run_family` result.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     family = ds.attrs.get("family", "")
     groups = _groups(ds)
@@ -251,6 +287,15 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     :func:`ced.study.convergence.estimate_validation` does: settings whose true error is below
     ``UNRESOLVED`` times the reference's uncertainty, or whose reference is uncertain by more
     than 1 % (not resolved), are drawn hollow and not counted.
+
+    Parameters
+    ----------
+    datasets : dict of str to xarray.Dataset
+        Family -> its :func:`ced.study.convergence.run_family` result.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     fig, ax = plt.subplots(figsize=(5.6, 5.0), constrained_layout=True)
     inside = total = 0
@@ -360,7 +405,21 @@ def _auto_lines(datasets: dict[str, xr.Dataset]) -> list[str]:
 
 def accuracy_markdown(datasets: dict[str, xr.Dataset], table, validation: dict) -> str:
     """Markdown page of the study: the accuracy table, one line on the error estimate's
-    validation and the reference values with their relative uncertainties."""
+    validation and the reference values with their relative uncertainties.
+
+    Parameters
+    ----------
+    datasets : dict of str to xarray.Dataset
+        Family -> its :func:`ced.study.convergence.run_family` result.
+    table : pandas.DataFrame
+        :func:`ced.study.convergence.accuracy_table` of them.
+    validation : dict
+        :func:`ced.study.convergence.estimate_validation` of them.
+
+    Returns
+    -------
+    str
+    """
     lines = ["# What accuracy costs in time", "",
              "Cheapest sweep setting that reaches each target relative error on peak stress "
              "(against the Richardson-extrapolated reference), and its solve time per case "
@@ -393,7 +452,19 @@ def write_accuracy_summary(paths: list[str], csv: str | Path, markdown: str | Pa
     :func:`ced.study.convergence.run_family`) → :func:`ced.study.convergence.accuracy_table`
     as ``csv`` and, with :func:`ced.study.convergence.estimate_validation` and the references,
     as ``markdown``; one :func:`pareto_figure` per family into ``figures[family] = (png, svg)``;
-    :func:`estimate_figure` into ``estimate`` if given."""
+    :func:`estimate_figure` into ``estimate`` if given.
+
+    Parameters
+    ----------
+    paths : list of str
+        The families' convergence files.
+    csv, markdown : str or Path
+        The table files written.
+    figures : dict of str to (str, str)
+        Family -> (PNG, SVG) of its Pareto figure.
+    estimate : (str, str), optional
+        PNG and SVG of the estimate figure.
+    """
     from .convergence import accuracy_table, estimate_validation
 
     datasets = {}

@@ -1,6 +1,6 @@
 """The fidelity ladder: one scene through every model, each refined until converged.
 
-Rungs (DESIGN §3 formulations): ``rigid``, quasi-static ``euler_bernoulli`` (no elastic
+Rungs (the formulations of docs/theory.md): ``rigid``, quasi-static ``euler_bernoulli`` (no elastic
 inertia), dynamic ``euler_bernoulli``, ``timoshenko``, ``seed_lame`` (thesis II.5) and
 ``plane_stress`` (thesis II.3) where available. For each rung the mesh is doubled until the
 peak stress of the watched link and its first natural frequency change by less than
@@ -52,7 +52,25 @@ def _measure(scene: dict, link: str) -> dict:
 
 def run_rung(scene: dict, rung: str, link: str, tolerance: float = 0.01) -> dict:
     """Converged results of one rung: refine until the peak stress and first frequency of
-    ``link`` change by less than ``tolerance`` between two meshes."""
+    ``link`` change by less than ``tolerance`` between two meshes.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+    rung : str
+        The model (a key of :data:`RUNGS`).
+    link : str
+        The link whose results are compared.
+    tolerance : float
+        Relative change that counts as converged (dimensionless).
+
+    Returns
+    -------
+    dict
+        Elements, peak deflection (m), peak stress (Pa), first frequency (Hz), solve time (s)
+        and whether it converged.
+    """
     formulation, drop, meshes = RUNGS[rung]
     base = copy.deepcopy(scene)
     effects = base.get("effects", ["inertia", "elastic_inertia", "coriolis", "centrifugal",
@@ -86,7 +104,22 @@ def run_rung(scene: dict, rung: str, link: str, tolerance: float = 0.01) -> dict
 
 def run_ladder(scene: dict, link: str = "coupler", rungs=None) -> dict[str, dict]:
     """Every available rung on ``scene``; rungs whose formulation is not available are
-    reported with the reason instead of results."""
+    reported with the reason instead of results.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+    link : str
+        The link whose results are compared.
+    rungs : sequence of str, optional
+        The models (default: every rung).
+
+    Returns
+    -------
+    dict of str to dict
+        Rung -> :func:`run_rung` result (or the reason it is not available).
+    """
     out = {}
     for rung in rungs or RUNGS:
         formulation = RUNGS[rung][0]
@@ -98,7 +131,15 @@ def run_ladder(scene: dict, link: str = "coupler", rungs=None) -> dict[str, dict
 
 
 def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
-    """ladder.json, ladder.md (table) and ladder.png/.svg (figure) in ``directory``."""
+    """ladder.json, ladder.md (table) and ladder.png/.svg (figure) in ``directory``.
+
+    Parameters
+    ----------
+    results : dict of str to dict
+        :func:`run_ladder` results.
+    directory : str or Path
+        Target folder (created if missing).
+    """
     from .figures import save
 
     directory = Path(directory)
@@ -134,7 +175,17 @@ def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
 
 
 def run_scene_ladder(path: str | Path, directory: str | Path, link: str = "coupler") -> None:
-    """Validate the scene file, run every rung on it and write the results to ``directory``."""
+    """Validate the scene file, run every rung on it and write the results to ``directory``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A scene file.
+    directory : str or Path
+        Target folder.
+    link : str
+        The link whose results are compared.
+    """
     import yaml
 
     load_scene(path)  # a bad scene fails here, naming the key, before anything is written

@@ -28,7 +28,17 @@ _LENGTHS = ("ground", "crank", "coupler", "rocker", "rod", "offset")
 
 
 def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
-    """Save ``fig`` as ``png`` and as ``svg`` (default: the same name with .svg)."""
+    """Save ``fig`` as ``png`` and as ``svg`` (default: the same name with .svg).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure (closed afterwards).
+    png : str or Path
+        The PNG file written.
+    svg : str or Path, optional
+        The SVG file written (default: ``png`` with ``.svg``).
+    """
     png = Path(png)
     svg = png.with_suffix(".svg") if svg is None else Path(svg)
     for path in (png, svg):
@@ -43,6 +53,15 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
 
     Cases with status ok are drawn in colour, flagged ones in grey (failed cases, with no
     values, are left out).
+
+    Parameters
+    ----------
+    paths : list of str
+        Family summary files (``maps/<family>.nc``).
+    png : str or Path
+        The PNG file written.
+    svg : str or Path, optional
+        The SVG file written (default: ``png`` with ``.svg``).
     """
     datasets = [xr.open_dataset(p, engine="netcdf4") for p in paths]
     has_stress = any("peak_stress" in ds for ds in datasets)
@@ -145,7 +164,18 @@ _UNRELIABLE = 2 | 16
 def representative_geometry(ds: xr.Dataset) -> dict[str, float]:
     """A typical member of the family: among the geometries with the best share of usable
     cases (lowest frequency positive; and preferably no near-singular or failed status), the
-    one whose lowest natural frequency (median over its cases) is the median."""
+    one whose lowest natural frequency (median over its cases) is the median.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A family summary with natural frequencies.
+
+    Returns
+    -------
+    dict of str to float
+        The geometry's lengths, m.
+    """
     keys = [k for k in _LENGTHS if k in ds.coords and ds[k].dims == ("case",)]
     f1 = ds.natural_frequency_min.isel(mode=0).values
     status = (np.nan_to_num(ds.status.values).astype(int) if "status" in ds
@@ -174,6 +204,15 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     effective stiffness, stored as −√|λ|/2π by
     :func:`ced.fem.eigenproblem.natural_frequencies`; bands are clipped at the bottom edge). Dashed lines: crank harmonics k·Ω/2π, k = 1…10 — a mode
     band crossing a harmonic line is a candidate resonance.
+
+    Parameters
+    ----------
+    path : str or Path
+        The family summary file.
+    png : str or Path
+        The PNG file written.
+    svg : str or Path, optional
+        The SVG file written (default: ``png`` with ``.svg``).
     """
     with xr.open_dataset(path, engine="netcdf4") as ds:
         ds = ds.load()
@@ -250,6 +289,13 @@ def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset
     range); the material is ``material`` (default the first of the grid), the section the
     first; every other length is fixed at the value whose slice holds the most cases (ties:
     the median of those values). Returns the slice, the y name and the fixed values.
+
+    Parameters
+    ----------
+    grid : xarray.Dataset
+        A family's grid map (``maps/<family>_grid.nc``).
+    material : str, optional
+        The material of the slice.
     """
     material = str(grid.material.values[0]) if material is None else material
     has = np.isfinite(grid["case"]).sel(material=material)
@@ -285,6 +331,17 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
     natural frequency f_1, k = 1…5 (solid: lowest f_1 over the cycle, dotted: highest,
     each the median over the speeds of the slice); crosses: cases flagged resonant or
     parametrically unstable; hatched: no case. Slice chosen by :func:`map_slice`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The family's grid file.
+    png : str or Path
+        The PNG file written.
+    svg : str or Path, optional
+        The SVG file written (default: ``png`` with ``.svg``).
+    material : str, optional
+        The material of the slice (default: the grid's first).
     """
     from matplotlib.colors import LogNorm
 
@@ -353,6 +410,22 @@ def magnification(deflection: float, size: float, fraction: float = 0.1) -> floa
     """A round magnification (1, 2, 5 × 10^n, below 1 for a diverged response) that draws
     ``deflection`` at about ``fraction`` × ``size``.
 
+    Parameters
+    ----------
+    deflection : float
+        Largest deflection, m.
+    size : float
+        Size of the drawing, m.
+    fraction : float
+        Share of ``size`` the magnified deflection should take.
+
+    Returns
+    -------
+    float
+        The factor.
+
+    Examples
+    --------
     >>> magnification(1e-4, 0.3)
     200.0
     """
@@ -393,6 +466,17 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
     the worst instant (the step of the largest |stress| anywhere), rigid (grey) and deformed
     with the elastic deflection magnified by the factor in the title.
+
+    Parameters
+    ----------
+    summary_path : str or Path
+        The family summary file.
+    chunk_paths : list of str
+        The family's chunk files (the time history is read from the worst case's chunk).
+    png : str or Path
+        The PNG file written.
+    svg : str or Path, optional
+        The SVG file written (default: ``png`` with ``.svg``).
     """
 
     with xr.open_dataset(summary_path, engine="netcdf4") as summary:

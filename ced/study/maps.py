@@ -1,4 +1,4 @@
-"""Maps: chunk datasets → per-family summaries and grid maps (DESIGN §6).
+"""Maps: chunk datasets → per-family summaries and grid maps (docs/guide/first_study.md).
 
 Each chunk is reduced on its own (peaks over the cycle) and the small results are
 concatenated, so memory stays bounded by one chunk whatever the study size
@@ -70,6 +70,19 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
 
     With ``stress_safety_factor`` and the peak stress present, adds ``stress_utilisation`` =
     factor × peak stress / yield strength (≤ 1 means safe with that factor).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A chunk dataset (:func:`ced.study.chunk_job.run_chunk`).
+    stress_safety_factor : float, optional
+        Required ratio of yield strength to peak stress (dimensionless).
+
+    Returns
+    -------
+    xarray.Dataset
+        Per case: peak stress (Pa) and deflection (m) per link, first natural frequency band
+        (Hz), distance from the nearest crank harmonic, stability, status, …
     """
     with xr.set_options(keep_attrs=True):
         out = xr.Dataset(coords={k: v for k, v in ds.coords.items()
@@ -115,6 +128,20 @@ def harmonic_ratio(f_low: xr.DataArray, f_high: xr.DataArray, speed: xr.DataArra
     the band [``f_low``, ``f_high``] of mode i over the cycle: 0 when a band contains a
     harmonic kΩ/2π, else the distance from the nearer band edge. ``speed`` Ω in rad/s.
 
+    Parameters
+    ----------
+    f_low, f_high : xarray.DataArray, (case, mode)
+        Lowest and highest natural frequency of each mode over the cycle, Hz.
+    speed : xarray.DataArray, (case,)
+        Input speed Ω, rad/s.
+    harmonics : int
+        Crank harmonics considered, k = 1 … harmonics.
+
+    Returns
+    -------
+    xarray.DataArray, (case,)
+        The relative distance (dimensionless).
+
     Examples
     --------
     >>> import numpy as np, xarray as xr
@@ -144,6 +171,18 @@ def harmonic_ratio(f_low: xr.DataArray, f_high: xr.DataArray, speed: xr.DataArra
 def stable_flag(floquet: xr.DataArray | None, status: xr.DataArray | None) -> xr.DataArray:
     """1 where the periodic response is stable (Floquet multipliers |μ| ≤ 1 + margin and no
     parametrically_unstable flag), 0 where unstable, −1 where unknown (no multiplier, failed).
+
+    Parameters
+    ----------
+    floquet : xarray.DataArray or None, (case,)
+        ``floquet_multiplier_max`` (dimensionless), if present.
+    status : xarray.DataArray or None, (case,)
+        ``status``, if present.
+
+    Returns
+    -------
+    xarray.DataArray of int8, (case,)
+        1, 0 or −1.
     """
     ref = floquet if floquet is not None else status
     value = xr.full_like(ref, -1, dtype="int8")
@@ -180,6 +219,16 @@ def family_grid(summary: xr.Dataset) -> xr.Dataset:
     ``section``; ``case`` itself stays as a variable (the id of the grid point's
     case, −1 where none) to find a case in the per-case file. Floating variables are NaN and
     integer ones their ``_FillValue`` where the grid point has no case in this family.
+
+    Parameters
+    ----------
+    summary : xarray.Dataset
+        A family's per-case summary (:func:`case_summary` of its chunks).
+
+    Returns
+    -------
+    xarray.Dataset
+        The same variables on the grid dimensions.
     """
     dims = _grid_dims(summary)
     if not dims:
@@ -244,6 +293,17 @@ def reduce_family(paths: list[str], output: str, grid_output: str | None = None,
     """Reduce a family's chunk files into ``output`` (per case) and ``grid_output`` (map).
 
     Both are netCDF, CF-described, written atomically.
+
+    Parameters
+    ----------
+    paths : list of str
+        The family's chunk files.
+    output : str
+        The per-case summary file.
+    grid_output : str, optional
+        The grid map file.
+    stress_safety_factor : float, optional
+        For ``stress_utilisation`` (dimensionless).
     """
     parts = []
     for path in paths:

@@ -28,6 +28,24 @@ def safe_speed(speeds, peak_stress, status, yield_strength: float | None,
     resonant, parametrically_unstable, failed or not_assemblable. Returns NaN when the yield
     strength is unknown, None ("none") when even the lowest speed fails.
 
+    Parameters
+    ----------
+    speeds : array_like
+        Input speeds of one geometry, rad/s, in any order.
+    peak_stress : array_like
+        Peak stress at each speed, Pa.
+    status : array_like of int
+        Status code at each speed.
+    yield_strength : float or None
+        Yield strength of the material, Pa.
+    stress_safety_factor : float
+        Required ratio of yield strength to peak stress.
+
+    Returns
+    -------
+    float or None
+        The safe speed limit, rad/s; NaN or None as above.
+
     Examples
     --------
     >>> safe_speed([100, 50, 200, 300], [60e6, 50e6, 130e6, 90e6], [0, 0, 0, 0], 235e6, 2.0)
@@ -54,6 +72,18 @@ def safe_speed_table(summaries: list[xr.Dataset], stress_safety_factor: float = 
     Returns a pandas DataFrame with the geometry columns, ``yield_strength_MPa``,
     ``safe_speed_rad_s`` (float, NaN when the yield strength is unknown or no speed is safe)
     and ``safe_speed`` (text: the speed, "none" or "unknown"), sorted by family then geometry.
+
+    Parameters
+    ----------
+    summaries : list of xarray.Dataset
+        Family summaries (:func:`ced.study.maps.case_summary`).
+    stress_safety_factor : float
+        Required ratio of yield strength to peak stress.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per geometry.
     """
     import pandas as pd
 
@@ -94,7 +124,17 @@ def safe_speed_table(summaries: list[xr.Dataset], stress_safety_factor: float = 
 
 def write_safe_speed_table(paths: list[str], csv: str, markdown: str,
                            stress_safety_factor: float = 2.0) -> None:
-    """:func:`safe_speed_table` of the family summary files ``paths`` as CSV and markdown."""
+    """:func:`safe_speed_table` of the family summary files ``paths`` as CSV and markdown.
+
+    Parameters
+    ----------
+    paths : list of str
+        Family summary files (``results/<study>/maps/<family>.nc``).
+    csv, markdown : str
+        The files written.
+    stress_safety_factor : float
+        Required ratio of yield strength to peak stress.
+    """
     summaries = []
     for path in paths:
         with xr.open_dataset(path, engine="netcdf4") as ds:

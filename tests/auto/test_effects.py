@@ -21,7 +21,7 @@ def section(height, width=0.01):
 
 
 def four_bar(speed, height=0.005, **changes):
-    """The DESIGN §4 reference crank-rocker: steel coupler and rocker, rigid crank."""
+    """The reference crank-rocker of docs/guide/first_scene.md: steel coupler and rocker, rigid crank."""
     scene = {
         "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                       "rocker": 0.35},

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A single-node SLURM on this machine, for tests/test_cluster.py (CONVENTIONS.md, Cluster):
+# A single-node SLURM on this machine, for tests/test_cluster.py (docs/guide/slurm.md):
 # munge + slurmctld + slurmd as root, ProctrackType=proctrack/linuxproc, TaskPlugin=task/none,
 # no accounting storage, one partition "ced" with this node and 2 CPUs, real memory from free -m.
 # Installs slurm-wlm and munge with apt-get if missing (needs root). Idempotent: a running

@@ -1,4 +1,4 @@
-"""Shared helpers of the hard-case suite (DESIGN §1: hard cases are flagged, never NaN)."""
+"""Shared helpers of the hard-case suite (hard cases are flagged, never NaN: docs/guide/status.md)."""
 from __future__ import annotations
 
 import numpy as np

@@ -63,7 +63,7 @@ def test_soft_link_is_flagged_large_deflection_and_stiff_link_is_not(E, rho, lar
 
 def test_more_modes_than_the_model_has_is_a_scene_error_not_nan():
     # One element, clamped: 3 DOFs, so 3 modes exist. Asking for 6 used to pad with NaN; it
-    # is an impossible value of modal.modes (DESIGN §4), named with the available count.
+    # is an impossible value of modal.modes (docs/reference/scene.md), named with the available count.
     scene = cantilever("steel")
     scene["discretization"]["elements_per_link"] = 1
     scene["modal"] = {"modes": 3, "angles": 2}

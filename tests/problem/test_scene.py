@@ -1,4 +1,4 @@
-"""Scene parsing, validation and normalization (ced.problem.scene, DESIGN §4)."""
+"""Scene parsing, validation and normalization (ced.problem.scene, docs/reference/scene.md)."""
 from __future__ import annotations
 
 import copy

@@ -89,3 +89,22 @@ def test_solver_arrays_are_bounded_per_part_not_per_run():
     small, _ = run_memory([scene] * part)
     large, _ = run_memory([scene] * (10 * part))
     assert large - small == 9 * part * case_memory(scene)
+
+
+def test_case_seconds_grows_with_the_model():
+    from ced.problem.scene import load_scene
+    from ced.simulation.size import case_seconds
+
+    def seconds(**blocks):
+        return case_seconds(load_scene({"mechanism": {"type": "four_bar", "ground": 0.5,
+                                                      "crank": 0.1, "coupler": 0.45,
+                                                      "rocker": 0.35}, **blocks}))
+
+    rigid = seconds(discretization={"formulation": "rigid"})
+    coarse = seconds(discretization={"elements_per_link": 2})
+    fine = seconds(discretization={"elements_per_link": 16})
+    assert 0 < rigid < coarse < fine
+    assert seconds(time={"steps_per_revolution": 1024}) > seconds()
+    assert seconds(time={"start": "periodic"}) > seconds()
+    assert seconds(modal={"angles": 72}) > seconds()
+    assert seconds(outputs={"error_estimate": False}) < seconds()

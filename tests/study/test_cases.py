@@ -1,4 +1,4 @@
-"""The case table of a study (DESIGN §6): grids, families, chunks, the config schema."""
+"""The case table of a study (docs/reference/config.md): grids, families, chunks, the config schema."""
 import copy
 import json
 import math

@@ -1,4 +1,4 @@
-"""Figures of a study (DESIGN §6): each writes a PNG and an SVG from the tiny test study."""
+"""Figures of a study (docs/guide/first_study.md): each writes a PNG and an SVG from the tiny test study."""
 from pathlib import Path
 
 import numpy as np

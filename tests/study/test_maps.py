@@ -1,4 +1,4 @@
-"""Reductions (DESIGN §6): per-case peaks of a family and the same unstacked onto the grid."""
+"""Reductions (docs/guide/first_study.md): per-case peaks of a family and the same unstacked onto the grid."""
 import copy
 import json
 from pathlib import Path
@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def cf_problems(ds: xr.Dataset) -> list[str]:
-    """Variables without long_name, or numeric ones without units (CF, CONVENTIONS.md)."""
+    """Variables without long_name, or numeric ones without units (CF conventions)."""
     problems = []
     for name, var in ds.variables.items():
         if "long_name" not in var.attrs:
