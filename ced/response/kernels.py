@@ -47,12 +47,13 @@ def lu_factor(A: np.ndarray, piv: np.ndarray) -> bool:
                 A[k, j] = A[p, j]
                 A[p, j] = t
         inv = 1.0 / A[k, k]
+        pivot_row = A[k]
         for i in range(k + 1, n):
             f = A[i, k] * inv
             A[i, k] = f
-            if f != 0.0:
-                for j in range(k + 1, n):
-                    A[i, j] -= f * A[k, j]
+            row = A[i]
+            for j in range(k + 1, n):
+                row[j] -= f * pivot_row[j]
     return True
 
 
