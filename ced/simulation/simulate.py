@@ -95,12 +95,15 @@ def _rigid_outputs(batch: Batch, inertia: bool,
     steps = solved if one_period else np.arange(0, batch.n_steps + 1, every)
     motion = batch.rigid_motion(batch.step_size[:, None] * solved[None, :])
     forces = inverse_dynamics(motion, batch.bodies, batch.gravity, inertia=inertia)
-    j, turns = steps % period, steps // period
-    angle = motion.link_angle[:, j]
-    if batch.n_steps > period:
+    if batch.n_steps <= period:  # every output step was solved
+        j = steps
+        angle = motion.link_angle[:, j]
+    else:
+        j, turns = steps % period, steps // period
         per_period = np.round((motion.link_angle[:, period] - motion.link_angle[:, 0])
                               / (2.0 * np.pi))
-        angle = angle + 2.0 * np.pi * turns[None, :, None] * per_period[:, None, :]
+        angle = (motion.link_angle[:, j]
+                 + 2.0 * np.pi * turns[None, :, None] * per_period[:, None, :])
     out = {
         "time": batch.step_size[:, None] * steps[None, :],
         "crank_angle": angle[:, :, 0],
