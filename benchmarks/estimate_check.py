@@ -13,6 +13,11 @@ Usage::
     .venv/bin/python benchmarks/estimate_check.py config/config.yaml     # the default study (long)
     .venv/bin/python benchmarks/estimate_check.py --cores 2 CONFIG
 
+Besides, when ``make study`` has run the default study from scratch (CI does, before
+``make bench``), it left its wall time in ``results/default/wall_seconds.txt``: that run is
+compared with the estimate for ``config/config.yaml`` too, at no extra cost (reported in the
+JSON; the exit code depends on the test study's run only).
+
 The estimate's constants come from ``benchmarks/calibrate_cost.py`` (per-case costs,
 ``ced/simulation/size.py``) and from the job overheads measured on the test study
 (``JOB_SECONDS``, ``CHUNK_START_SECONDS``, ``LADDER_SECONDS`` in ``ced/study/config.py``).
@@ -81,13 +86,27 @@ def main(argv: list[str] | None = None) -> int:
         "load_average": [round(x, 2) for x in os.getloadavg()],
         "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
+    record = ROOT / "results" / "default" / "wall_seconds.txt"
+    if record.exists():
+        seconds, cores = (float(x) for x in record.read_text().split())
+        default = study_estimate(load_config(ROOT / "config" / "config.yaml"))
+        default_estimate = default.run_seconds(int(cores))
+        report["default_study"] = {
+            "cores": int(cores), "cases": default.cases,
+            "estimated_seconds": round(default_estimate, 1), "measured_seconds": seconds,
+            "estimate_over_measured": round(default_estimate / seconds, 3)}
+        ratio_default = default_estimate / seconds
+        print(f"default study: estimate {default_estimate:.0f} s vs measured {seconds:.0f} s "
+              f"(make study) on {int(cores)} cores: ratio {ratio_default:.2f}")
+        # Informational: the default study's run shares CI's machine with other work, so it
+        # is recorded and printed; the exit code is the test study's, measured here.
     out = Path(__file__).with_name("estimate_check.json")
     out.write_text(json.dumps(report, indent=2) + "\n")
     print(json.dumps(report, indent=2))
     inside = 1 / TOLERANCE_FACTOR <= ratio <= TOLERANCE_FACTOR
-    print(f"estimate {estimated:.0f} s vs measured {measured:.0f} s on {args.cores} cores: "
-          f"ratio {ratio:.2f} ({'within' if inside else 'OUTSIDE'} a factor "
-          f"{TOLERANCE_FACTOR:g})")
+    print(f"test study: estimate {estimated:.0f} s vs measured {measured:.0f} s on "
+          f"{args.cores} cores: ratio {ratio:.2f} ({'within' if inside else 'OUTSIDE'} a "
+          f"factor {TOLERANCE_FACTOR:g})")
     return 0 if inside else 1
 
 

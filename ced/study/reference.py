@@ -113,6 +113,9 @@ def config_rows() -> list[list[str]]:
             if full.get("type") == "object" and "properties" in full and "$ref" not in node \
                     and name != "base_scene":
                 walk(full["properties"], full.get("required", []), f"{key}.")
+            for branch in [] if "$ref" in node else full.get("oneOf", []):  # convergence
+                if branch.get("type") == "object" and "properties" in branch:
+                    walk(branch["properties"], branch.get("required", []), f"{key}.")
 
     walk(schema["properties"], schema.get("required", []), "")
     return rows
