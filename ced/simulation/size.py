@@ -266,20 +266,21 @@ def size_text(n: float) -> str:
 # Measured cost model of one case inside a vectorized batch, one core, one BLAS thread, by
 # benchmarks/calibrate_cost.py (batches of 8 reference four-bars with a flexible coupler and
 # rocker, 1 revolution of 128 steps, fastest of 2 runs; 2026-11-24, this project's 2-core
-# machine). Re-measure when the solver changes; benchmarks/estimate_check.py compares the
+# machine, re-measured after the one-period compiled solver; the default study's estimate,
+# 8 min on 2 cores, against its measured 7.6 min). Re-measure when the solver changes; benchmarks/estimate_check.py compares the
 # resulting study estimate with a measured run of config/studies/test.yaml.
 #: Rigid analysis (kinematics, inverse dynamics, dataset), s per case per time step.
-COST_RIGID_STEP = 2.19e-05
+COST_RIGID_STEP = 1.44e-05
 #: Elastic response marching from rest, s per case per time step, at n elastic DOFs: (n, s).
-COST_STEP_UNDEFORMED = ((6, 9.8e-05), (12, 0.00011), (24, 0.00016), (48, 0.000373),
-                        (96, 0.00131))
+COST_STEP_UNDEFORMED = ((6, 3.49e-05), (12, 4.57e-05), (24, 8.67e-05), (48, 0.000237),
+                        (96, 0.000944))
 #: The same over one revolution with ``start: periodic`` (marching plus shooting), (n, s).
-COST_STEP_PERIODIC = ((6, 0.000132), (12, 0.000152), (24, 0.000326), (48, 0.000991),
-                      (96, 0.00395))
+COST_STEP_PERIODIC = ((6, 3.49e-05), (12, 4.74e-05), (24, 0.000108), (48, 0.000476),
+                      (96, 0.00244))
 #: Modal analysis, s per case per modal angle (4 modes), (n, s).
-COST_MODAL_ANGLE = ((12, 8.05e-05), (48, 0.000374))
+COST_MODAL_ANGLE = ((12, 4.33e-05), (48, 0.000331))
 #: Factor on a case's cost for its error estimate (the coarser or finer companion solution).
-COST_ERROR_ESTIMATE = 3.59
+COST_ERROR_ESTIMATE = 2.97
 
 
 def _interpolate(table: tuple, n: float) -> float:
@@ -317,8 +318,8 @@ def case_seconds(scene: dict) -> float:
     >>> from ced.problem.scene import load_scene
     >>> rigid = load_scene({"mechanism": {"type": "single_link", "length": 0.5},
     ...                     "discretization": {"formulation": "rigid"}})
-    >>> round(case_seconds(rigid), 4)  # 1025 steps x 2.19e-05 s
-    0.0224
+    >>> round(case_seconds(rigid), 4)  # 1025 steps x 1.44e-05 s
+    0.0148
     """
     steps = step_count(scene) + 1
     seconds = COST_RIGID_STEP * steps
