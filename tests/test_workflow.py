@@ -116,7 +116,7 @@ def test_lint():
     assert not others, text
     rules = re.findall(r"^Lints for rule (\w+)", text, re.M)
     assert set(rules) <= {"simulate_chunk", "reduce_family", "overview_figure",
-                          "campbell_figure", "fidelity_ladder", "resonance_map",
+                          "estimate_figure", "campbell_figure", "fidelity_ladder", "resonance_map",
                           "worst_case_figure", "safe_speed_table", "convergence_family",
                           "convergence_summary"}
 
