@@ -129,6 +129,18 @@ def shape_functions(xi, eta, nodes_per_element: int = 8) -> dict:
 
     ``N``, ``dxi`` = ∂N/∂ξ, ``deta`` = ∂N/∂η; local nodes in the order of the 3 × 3 grid
     (x index fastest), without the centre for the 8-node serendipity element.
+
+    Parameters
+    ----------
+    xi, eta : array_like
+        Reference coordinates ξ, η ∈ [−1, 1] of the points, shape (g,).
+    nodes_per_element : int, optional
+        8 (serendipity) or 9 (Lagrange).
+
+    Returns
+    -------
+    dict
+        ``N``, ``dxi``, ``deta``, each (g, m) with m = ``nodes_per_element``.
     """
     xi, eta = np.asarray(xi, float), np.asarray(eta, float)
     if nodes_per_element == 9:
@@ -170,6 +182,15 @@ def _local_grid(nodes_per_element: int):
 # ------------------------------------------------------------------------------------ mesh
 def mesh(n_elements: int, elements_across: int, nodes_per_element: int = 8) -> dict:
     """Topology of the structured mesh (independent of sizes).
+
+    Parameters
+    ----------
+    n_elements : int
+        Elements along the link, ne.
+    elements_across : int
+        Elements across the section height, na.
+    nodes_per_element : int, optional
+        8 or 9 (see :func:`shape_functions`).
 
     Returns
     -------
@@ -438,7 +459,18 @@ def _face_dofs(order, face_slots):
 def rigid_modes(matrices: ContinuumLinkMatrices) -> np.ndarray:
     """(..., n, 3) link-DOF vectors of the rigid motions: unit translations along x and y and a
     unit (small) rotation about pin 0, d = (−y, x). The resultant of a load vector f is
-    rigid_modes(lm)[..., :2]ᵀ f (the face DOFs are relative, so Σ f is not the resultant)."""
+    rigid_modes(lm)[..., :2]ᵀ f (the face DOFs are relative, so Σ f is not the resultant).
+
+    Parameters
+    ----------
+    matrices : ContinuumLinkMatrices
+        The link's matrices (node coordinates, m, and the DOF transform).
+
+    Returns
+    -------
+    numpy.ndarray
+        The rigid-motion vectors (…, n, 3): translations in m per m, rotation in m per rad.
+    """
     xy = matrices.node_coordinates
     d = np.zeros(xy.shape[:-2] + (2 * xy.shape[-2], 3))
     d[..., 0::2, 0] = 1.0
@@ -452,6 +484,13 @@ def rigid_modes(matrices: ContinuumLinkMatrices) -> np.ndarray:
 def recovery_matrices(matrices: ContinuumLinkMatrices, stations) -> dict:
     """Operators (..., st, n) mapping the link DOFs q to fields at normalized stations
     ξ ∈ [0, 1].
+
+    Parameters
+    ----------
+    matrices : ContinuumLinkMatrices
+        The link's plane-stress matrices (mesh, length and height in m, E in Pa, ν).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
 
     Returns
     -------

@@ -135,6 +135,22 @@ def lame_moduli(E, G_shear=None, nu=None):
     """(λ + 2μ, μ, ν) from E and the shear modulus G = μ (or Poisson's ratio ν), Pa.
 
     Raises ValueError unless −1 < ν < 1/2 (λ + 2μ = 2μ(1 − ν)/(1 − 2ν) finite and positive).
+
+    Parameters
+    ----------
+    E : array_like
+        Young's modulus, Pa.
+    G_shear : array_like, optional
+        Shear modulus G = μ, Pa (takes precedence over ``nu``).
+    nu : array_like, optional
+        Poisson's ratio ν (dimensionless), used when ``G_shear`` is not given.
+
+    Returns
+    -------
+    lam2mu, mu : numpy.ndarray
+        λ + 2μ and μ, Pa.
+    nu : numpy.ndarray
+        Poisson's ratio ν.
     """
     E = np.asarray(E, float)
     if G_shear is not None:
@@ -152,7 +168,22 @@ def lame_moduli(E, G_shear=None, nu=None):
 
 def wave_speeds(E, nu, rho):
     """Longitudinal and transverse wave speeds (c1, c2) = (√((λ + 2μ)/ρ), √(μ/ρ)), m/s
-    (thesis III.3.1.a). E in Pa, ρ in kg/m³; broadcasts."""
+    (thesis III.3.1.a). E in Pa, ρ in kg/m³; broadcasts.
+
+    Parameters
+    ----------
+    E : array_like
+        Young's modulus, Pa.
+    nu : array_like
+        Poisson's ratio ν (dimensionless).
+    rho : array_like
+        Density ρ, kg/m³.
+
+    Returns
+    -------
+    c1, c2 : numpy.ndarray
+        Longitudinal and transverse wave speeds, m/s.
+    """
     lam2mu, mu, _ = lame_moduli(E, nu=nu)
     rho = np.asarray(rho, float)
     return np.sqrt(lam2mu / rho), np.sqrt(mu / rho)
@@ -260,6 +291,13 @@ def link_matrices(length, n_elements: int, *, E, rho, area, second_moment=None, 
 
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators mapping the link DOFs q to fields at normalized stations ξ ∈ [0, 1].
+
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's seed–Lamé matrices (length, n_elements, n_dofs).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
 
     Returns
     -------

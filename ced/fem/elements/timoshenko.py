@@ -111,6 +111,13 @@ def link_matrices(length, n_elements: int, *, E, G_shear, rho, area, second_mome
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators mapping the link DOFs q to fields at normalized stations ξ ∈ [0, 1].
 
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's Timoshenko matrices (length, n_elements).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
+
     Returns
     -------
     dict of (..., st, n) arrays: ``u``, ``v`` (m), ``rotation`` θ (rad), ``curvature`` θ'
