@@ -48,6 +48,18 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     solve of a pilot or an error estimate's companion: the rigid results over one period and
     the elastic peaks, without the histories
     (:func:`ced.response.elastic.elastic_response`).
+
+    Parameters
+    ----------
+    batch : Batch
+        Structurally identical cases (:func:`ced.response.batch.make_batch`).
+    peaks_only : bool, optional
+        Return the rigid results over one period and the elastic peaks only.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The dataset variables.
     """
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
