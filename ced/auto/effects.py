@@ -1,10 +1,10 @@
-"""``effects: auto``: choose the effects of a scene from cheap dimensionless estimates (DESIGN §3).
+"""``effects: auto``: choose a scene's effects from cheap dimensionless estimates (docs/theory.md).
 
 Every estimate is the relative change of a link's *peak stress* that an effect causes. It is
 worked out from the quasi-static stress of the rigid motion and the lowest mode of the frozen
 elastic mechanism, treated as a one-degree-of-freedom oscillator. An effect is simulated when
 its estimate exceeds the scene's ``tolerance``, so each neglected effect changes the peak
-response by less than the tolerance (as far as the estimate can tell), as DESIGN §3 asks.
+response by less than the tolerance (as far as the estimate can tell), as docs/theory.md asks.
 
 No time integration is needed. The inputs are the rigid motion over one input period
 (closed-form kinematics, :mod:`ced.rigid.kinematics`), the rigid inverse dynamics

@@ -1,4 +1,4 @@
-"""Per-case discretization error estimates (DESIGN §5 ``error_estimate``).
+"""Per-case discretization error estimates (docs/reference/dataset.md, ``error_estimate``).
 
 The estimate is relative, on the case's peak stress (the largest peak over its links). It
 comes from one coarser companion solution and the known convergence orders:

@@ -1,6 +1,6 @@
 """Joint coupling of the links: DOF layout and the exact time-varying projection z = P(t) y.
 
-Two coordinate sets (DESIGN §3, thesis II.4 with shared pin displacements instead of the
+Two coordinate sets (docs/theory.md, thesis II.4 with shared pin displacements instead of the
 thesis's strain-only joint conditions):
 
 * ``z`` — every link's local DOFs in its own rigid-body frame (flexible link: FE nodal DOFs;

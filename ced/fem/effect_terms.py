@@ -1,4 +1,4 @@
-"""The named effects of DESIGN §3, each adding one group of terms to M q̈ + C q̇ + K q = F.
+"""The named effects of docs/theory.md, each adding one group of terms to M q̈ + C q̇ + K q = F.
 
 Per link, in its local frame (elastic field w, rigid angular velocity ω and acceleration α):
 

@@ -1,7 +1,7 @@
 """Second-order jets: a time-dependent array with its first two time derivatives.
 
 A jet is an array of shape ``(3, ...)`` holding X, Ẋ, Ẍ. The projections of the elastic model
-(DESIGN §3: link-end DOFs are projections of joint translations, and the time derivatives of
+(docs/theory.md: link-end DOFs are projections of joint translations, and the time derivatives of
 those projections belong to the exact equations) are products of rotation matrices; carrying
 jets through the products gives Ṗ and P̈ exactly, without finite differences.
 """

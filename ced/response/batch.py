@@ -147,7 +147,7 @@ _LENGTH_KEYS = {
 
 def _drive(scene: dict, family: str) -> tuple[float, float]:
     """(initial angle, amplitude) of the input: rotation from θ0, or θ_mid + A sin(Ωt) with A a
-    fraction of the feasible half-range for rocker-input families (DESIGN §3)."""
+    fraction of the feasible half-range for rocker-input families (docs/theory.md)."""
     drive, mech = scene["drive"], scene["mechanism"]
     if mech["type"] != "four_bar":
         return drive["initial_angle"], math.nan

@@ -1,4 +1,4 @@
-"""The elastic response of a batch: start, march, recover, flag (DESIGN §3).
+"""The elastic response of a batch: start, march, recover, flag (docs/theory.md).
 
 Integrates the KED model (:mod:`ced.response.model`) from the requested start state
 (``undeformed``, ``quasi_static`` or the exact ``periodic`` steady state of
@@ -51,7 +51,8 @@ def _near_singular(batch: Batch) -> np.ndarray:
 
 def elastic_response(batch: Batch, status: np.ndarray,
                      peaks_only: bool = False) -> dict[str, np.ndarray]:
-    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
+    """Elastic variables of the dataset (docs/reference/dataset.md) for a batch, arrays with a
+    leading case axis.
 
     ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
     elastic ones (resonant, parametrically_unstable, large_deflection, near_singular where the

@@ -10,7 +10,7 @@ with every array carrying optional leading batch dimensions (cases): ``M, C, K``
 monodromy matrices). Units are those of the caller: with q in m and t in s, v is m/s, ẍ is m/s²,
 the step h is s, and M, C, K, F must be consistent (kg, N s/m, N/m, N).
 
-Schemes (DESIGN §3 "Time integration"):
+Schemes (docs/theory.md, "Time integration"):
 
 * Newmark family (Newmark 1959; HHT-α, Hilber, Hughes & Taylor 1977; generalized-α, Chung &
   Hulbert 1993) in the form of Arnold & Brüls (2007), which stays second-order accurate for

@@ -277,13 +277,13 @@ def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray
 
 
 def simulate(scenes) -> xr.Dataset:
-    """Run one scene or many and return the DESIGN §5 dataset.
+    """Run one scene or many and return the dataset of docs/reference/dataset.md.
 
     Parameters
     ----------
     scenes : path, dict, or an iterable of them
-        Scenes in the format of DESIGN §4. All must share the mechanism type and the number of
-        output steps (one dataset has one ``step`` dimension).
+        Scenes in the format of docs/reference/scene.md. All must share the mechanism type and
+        the number of output steps (one dataset has one ``step`` dimension).
 
     Returns
     -------

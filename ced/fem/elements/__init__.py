@@ -13,7 +13,7 @@ Every formulation module exposes the same pure functions::
     shape_functions(xi, h, phi) -> dict of shape-function arrays
 
 All parameters broadcast over leading batch (case) dimensions. Per link the equations are
-(DESIGN §3)::
+(docs/theory.md)::
 
     M q̈ + 2ω G q̇ + (K + α G − ω² M_w + Σ_k P_k Kg_k) q = L0 b0 + L1 b1 (+ m0 moment_load)
 

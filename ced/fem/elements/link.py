@@ -3,7 +3,7 @@ virtual-work integrals common to every formulation and the assembly of a uniform
 
 A formulation only supplies its shape functions at reference points ξ ∈ [0, 1] of an element
 of length h (see :func:`element_integrals` for the keys); everything else is shared, so the
-matrices of all formulations follow from the same virtual work (DESIGN §3, floating frame)::
+matrices of all formulations follow from the same virtual work (docs/theory.md, floating frame)::
 
     δW = ∫ δwᵀ ρA [ẅ + 2ωJẇ + (αJ − ω²I) w] + δθ ρI θ̈ + δεᵀ D ε + P δv' v' − δwᵀ b  ds
 
