@@ -1,4 +1,4 @@
-"""Recovery of deflections, strains and stresses from local link DOFs (docs/theory.md, "The elastic model").
+"""Recovery of deflections, strains and stresses from local link DOFs (docs/theory.md).
 
 Stations are normalized positions ξ ∈ [0, 1] along each link, ξ = 0 and 1 included.
 """
