@@ -54,7 +54,7 @@ def constant(x: np.ndarray) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        (x, 0, 0), shape (3, *x.shape).
+        (x, 0, 0), shape (3,) + x.shape.
     """
     out = np.zeros((3,) + np.shape(x))
     out[0] = x

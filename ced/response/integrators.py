@@ -653,7 +653,7 @@ def integrate(
     Returns
     -------
     q, v, acc : ndarray
-        Each of shape (n_steps + 1, *shape), shape being q0's broadcast with v0, F and the
+        Each of shape (n_steps + 1,) + shape, shape being q0's broadcast with v0, F and the
         batch dimensions of M (q0.shape when q0 already carries them). ``acc`` satisfies the
         equation of motion at every t_k.
 

@@ -5,8 +5,8 @@ Geometry and mesh
 -----------------
 A link of length L and in-plane height h (the section's ``height``; out-of-plane thickness
 t = A/h, so a rectangle b × h is exact) occupies x ∈ [0, L], y ∈ [−h/2, h/2] in its own
-frame (x from the first joint to the second, docs/theory.md). It is meshed with ``n_elements`` ×
-``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node Lagrange. Nodes
+frame (x from the first joint to the second, docs/theory.md). It is meshed with
+``n_elements`` × ``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node Lagrange. Nodes
 are numbered column by column along x (bottom to top in each column), two DOFs (u, v) each.
 3 × 3 Gauss quadrature is exact on rectangles for every matrix below (highest degree 4 per
 direction: NᵀN, s² N_xᵀN_x), and full integration of quadratic rectangles does not lock in
@@ -25,7 +25,7 @@ Physics (docs/theory.md, thesis II.3; σ = D ε, plane stress)
 
 *Geometric stiffness.* The beam formulations carry the axial force N(s) as P ∫v'ᵀv' ds. Here
 N(s) is spread uniformly over the section, σ_xx = N/A, and acts — as the continuum initial-stress
-term ∫ σ_ij w_,iᵀ w_,j dV does — on the x-derivatives of both displacement components. The
+term ``∫ σ_ij w_,iᵀ w_,j dV`` does — on the x-derivatives of both displacement components. The
 u_x part adds N/(EA) relative to the axial stiffness (negligible, and what Green–Lagrange
 strain gives); the shear and bending stresses of the rigid motion are left out, as in the
 beams.
@@ -103,6 +103,8 @@ _LOCAL = [(i, j) for j in range(3) for i in range(3)]  # local node grid (x inde
 class ContinuumLinkMatrices(LinkMatrices):
     """:class:`LinkMatrices` plus the mesh and material data of the continuum.
 
+    Attributes
+    ----------
     across_load : (..., n, 2) ∫ Nᵀ y t dA, m³; f += across_load @ (ρα, ρω²) is the
         y-dependent part of the rigid d'Alembert body force (see the module docstring)
     elements_across : elements over the height
