@@ -6,8 +6,9 @@ Geometry and mesh
 A link of length L and in-plane height h (the section's ``height``; out-of-plane thickness
 t = A/h, so a rectangle b × h is exact) occupies x ∈ [0, L], y ∈ [−h/2, h/2] in its own
 frame (x from the first joint to the second, docs/theory.md). It is meshed with
-``n_elements`` × ``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node Lagrange. Nodes
-are numbered column by column along x (bottom to top in each column), two DOFs (u, v) each.
+``n_elements`` × ``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node
+Lagrange. Nodes are numbered column by column along x (bottom to top in each column), two DOFs
+(u, v) each.
 3 × 3 Gauss quadrature is exact on rectangles for every matrix below (highest degree 4 per
 direction: NᵀN, s² N_xᵀN_x), and full integration of quadratic rectangles does not lock in
 bending (u = −κxy, v = κ(x² + νy²)/2 lie in both spaces).
