@@ -74,26 +74,6 @@ html_static_path: list[str] = []
 nitpicky = False
 templates_path = ["_templates"]
 
-# Docstrings in the solver layers (ced/fem, ced/response, ced/auto, ced/simulation/simulate.py)
-# are being rewritten on another branch; until that lands, reST markup warnings from these
-# files only (an unexpected indentation, a short title underline) do not fail the build.
-# Every other warning does. Remove an entry once its file's docstrings are fixed.
-PENDING_DOCSTRING_FIXES = (
-    "ced/fem/elements/plane_stress.py",
-    "ced/fem/elements/seed_lame.py",
-    "ced/fem/elements/timoshenko.py",
-    "ced/response/integrators.py",
-)
-
-
-class _PendingDocstringFixes:
-    """A logging filter that drops docutils warnings located in PENDING_DOCSTRING_FIXES."""
-
-    def filter(self, record) -> bool:
-        where = str(getattr(record, "location", "") or "") + " " + str(record.getMessage())
-        return not any(path in where for path in PENDING_DOCSTRING_FIXES)
-
-
 def plain_text_math(app, what, name, obj, options, lines) -> None:
     """Docstrings write math as plain text: ``|x|`` is an absolute value and ``(*batch, n)`` a
     shape, never a reST substitution or emphasis (ced uses neither). Escape ``|`` and ``(*``
@@ -120,10 +100,4 @@ def plain_text_math(app, what, name, obj, options, lines) -> None:
 
 
 def setup(app):
-    import logging
-
     app.connect("autodoc-process-docstring", plain_text_math)
-
-    for handler in logging.getLogger("sphinx").handlers:
-        if handler.level >= logging.WARNING:
-            handler.filters.insert(0, _PendingDocstringFixes())

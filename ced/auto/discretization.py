@@ -203,7 +203,27 @@ def interpolate(levels, errors, at, order: float = TIME_ORDER,
 
 
 def predicted_error(space: tuple, time: tuple, elements, steps) -> np.ndarray:
-    """E_x(n_e) + E_t(s_r) from the space and time ladders, each (levels, errors)."""
+    """E_x(n_e) + E_t(s_r) from the space and time ladders, each (levels, errors).
+
+    Parameters
+    ----------
+    space : tuple
+        The space ladder ``(levels, errors)``: elements per link of each rung and its relative
+        error on peak stress.
+    time : tuple
+        The time ladder ``(levels, errors)``: steps per revolution of each rung and its relative
+        error on peak stress.
+    elements : array_like
+        Elements per link at which the error is predicted.
+    steps : array_like
+        Steps per revolution at which the error is predicted (broadcast against ``elements``).
+
+    Returns
+    -------
+    numpy.ndarray
+        Predicted relative error on peak stress (dimensionless), of the broadcast shape of
+        ``elements`` and ``steps``.
+    """
     return (interpolate(*space, elements, order=2.0, steepest=4.0**SPACE_ORDER)
             + interpolate(*time, steps))
 

@@ -1,10 +1,10 @@
-"""``effects: auto``: choose the effects of a scene from cheap dimensionless estimates (DESIGN §3).
+"""``effects: auto``: choose a scene's effects from cheap dimensionless estimates (docs/theory.md).
 
 Every estimate is the relative change of a link's *peak stress* that an effect causes. It is
 worked out from the quasi-static stress of the rigid motion and the lowest mode of the frozen
 elastic mechanism, treated as a one-degree-of-freedom oscillator. An effect is simulated when
 its estimate exceeds the scene's ``tolerance``, so each neglected effect changes the peak
-response by less than the tolerance (as far as the estimate can tell), as DESIGN §3 asks.
+response by less than the tolerance (as far as the estimate can tell), as docs/theory.md asks.
 
 No time integration is needed. The inputs are the rigid motion over one input period
 (closed-form kinematics, :mod:`ced.rigid.kinematics`), the rigid inverse dynamics
@@ -238,6 +238,27 @@ def velocity_ratio(start: str, k_max: int, speed: float, omega1: float,
     - ``quasi_static``: the forced response plus a free vibration as large as the mismatch
       between the quasi-static and the dynamic response, which is the elastic-inertia
       estimate, so v = min(1, max(k_max Ω/ω₁, estimate)).
+
+    Parameters
+    ----------
+    start : str
+        The scene's ``time.start``: ``"undeformed"``, ``"periodic"`` or ``"quasi_static"``.
+    k_max : int
+        Highest crank harmonic whose share of the load is above the tolerance.
+    speed : float
+        Input speed Ω, rad/s.
+    omega1 : float
+        Lowest natural frequency ω₁ of the frozen mechanism, rad/s.
+    inertia_estimate : float
+        Relative size of the elastic-inertia effect (dimensionless), the free vibration left by a
+        quasi-static start.
+
+    Returns
+    -------
+    ratio : float
+        The velocity ratio v (dimensionless, at most 1).
+    reason : str
+        How it was estimated, for the ``effects_auto`` report.
     """
     forced = k_max * speed / omega1
     if start == "undeformed":
@@ -256,6 +277,20 @@ def end_conditions(topo, link: str) -> str:
     The motor holds the driven input link, so it is clamped at its ground pivot. Its other end
     is free at a tip (single link) or pinned to the next link. Pins share translations only,
     so every other link is pinned at both ends.
+
+    Parameters
+    ----------
+    topo : Topology
+        The mechanism's topology (:class:`ced.problem.mechanism.Topology`): links, joints,
+        input link.
+    link : str
+        Name of the link.
+
+    Returns
+    -------
+    str
+        ``"clamped-free"``, ``"clamped-pinned"`` or ``"pinned-pinned"``, a key of
+        :data:`BOUNDARY`.
     """
     if link != topo.input_link:
         return "pinned-pinned"
@@ -298,6 +333,18 @@ def fundamental_frequency(scene: dict) -> tuple[float, str]:
     Should the frozen system be singular, the fallback is the first bending frequency
     (β₁L)²/L² √(EI/ρA) of each flexible link with its end conditions
     (:func:`end_conditions`), again the smallest. The result is ``inf`` without elastic DOFs.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    omega : float
+        Lowest natural frequency ω₁, rad/s (``inf`` without elastic DOFs).
+    reason : str
+        How it was obtained (frozen modal analysis or beam formula), for the report.
     """
     batch = make_batch([_probe_scene(scene)])
     model = build_model(batch)
@@ -653,6 +700,11 @@ def _finish(report: dict) -> tuple[list[str], dict]:
 
 def resolve_auto(scene: dict) -> tuple[dict, dict | None]:
     """Resolve ``effects: auto`` of a normalized scene.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene; its ``effects`` is a list of effect names or ``"auto"``.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Per-case discretization error estimates (DESIGN §5 ``error_estimate``).
+"""Per-case discretization error estimates (docs/reference/dataset.md, ``error_estimate``).
 
 The estimate is relative, on the case's peak stress (the largest peak over its links). It
 comes from one coarser companion solution and the known convergence orders:
@@ -120,7 +120,20 @@ def coarsening_allowed(steps: int, omega1_h: float) -> bool:
 
 def algorithmic_damping(time_cfg: dict, omega_h: float) -> float:
     """Algorithmic damping ratio ξ̄ = −ln|λ|/arg λ of the scheme's principal root at ω h
-    (1 where the scheme has no oscillatory root there: the mode is overdamped)."""
+    (1 where the scheme has no oscillatory root there: the mode is overdamped).
+
+    Parameters
+    ----------
+    time_cfg : dict
+        The normalized scene's ``time`` block (integrator name and its parameters).
+    omega_h : float
+        Mode frequency times step size, ω h, rad per step (values below 1e-6 are raised to it).
+
+    Returns
+    -------
+    float
+        Algorithmic damping ratio ξ̄ (dimensionless).
+    """
     scheme = integrator_for(time_cfg)
     W = max(float(omega_h), 1e-6)
     roots = np.linalg.eigvals(amplification_matrix(scheme, W))

@@ -1,6 +1,6 @@
 """Joint coupling of the links: DOF layout and the exact time-varying projection z = P(t) y.
 
-Two coordinate sets (DESIGN §3, thesis II.4 with shared pin displacements instead of the
+Two coordinate sets (docs/theory.md, thesis II.4 with shared pin displacements instead of the
 thesis's strain-only joint conditions):
 
 * ``z`` — every link's local DOFs in its own rigid-body frame (flexible link: FE nodal DOFs;
@@ -133,6 +133,29 @@ def build_layout(
     Rigid links attached to the ground are treated first, so that a chain ground → rigid →
     rigid hosts every joint at the link that constrains it. A closed loop of rigid links (all
     links rigid) leaves no elastic freedom: every joint coordinate is then fixed.
+
+    Parameters
+    ----------
+    topology : Topology
+        Links (first and second joint) and joints of the mechanism, its ground joints and input
+        link.
+    flexible : dict of str to bool
+        Whether each link is flexible (rigid links are constrained, not discretized).
+    link_sizes : dict of str to int
+        Number of local DOFs of each link.
+    end_dofs : dict of str to tuple
+        Per link, the local indices ((u, v) at the first end, (u, v) at the second end) of the
+        end translations that the joints share.
+    clamp_dofs : tuple of int, optional
+        Local indices held by the clamp of a flexible input link at its ground pivot.
+    slider_joint : str or None, optional
+        The joint on the slider guide (parallel to x: its x translation free, y fixed), if any.
+
+    Returns
+    -------
+    Layout
+        The DOF layout: joint hosts and the kind (zero, free, constrained) of every joint
+        coordinate.
     """
     links, joints = topology.links, topology.joints
     host: dict[str, str | None] = {}

@@ -1,4 +1,4 @@
-"""The named effects of DESIGN §3, each adding one group of terms to M q̈ + C q̇ + K q = F.
+"""The named effects of docs/theory.md, each adding one group of terms to M q̈ + C q̇ + K q = F.
 
 Per link, in its local frame (elastic field w, rigid angular velocity ω and acceleration α):
 
@@ -79,19 +79,59 @@ def axial_force_coefficients(
     axial distributed load p(s) = p0 + p1 s (d'Alembert and weight, N/m):
     X_f + ∫₀ˢ p ds + N(s) = 0, so N0 = −X_f, N1 = −p0, N2 = −p1/2.
     Shape (3, case, step).
+
+    Parameters
+    ----------
+    first_force_local_x : numpy.ndarray
+        Axial (local x) force X_f on the link at its first end, N, shape (case, step).
+    load_constant_x : numpy.ndarray
+        Constant part p0 of the axial distributed load, N/m, shape (case, step).
+    load_linear_x : numpy.ndarray
+        Linear part p1 of the axial distributed load (p = p0 + p1 s), N/m², shape (case, step).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N0, N1, N2) in N, N/m, N/m², shape (3, case, step).
     """
     return np.stack([-first_force_local_x, -load_constant_x, -0.5 * load_linear_x])
 
 
 def split_order(layout: Layout, link: str) -> np.ndarray:
     """Local DOF order with the interior (constant unit) rows of P first, see
-    :meth:`ced.fem.coupling.Layout.row_split`; link matrices are stored in this order."""
+    :meth:`ced.fem.coupling.Layout.row_split`; link matrices are stored in this order.
+
+    Parameters
+    ----------
+    layout : Layout
+        The DOF layout.
+    link : str
+        Name of the link.
+
+    Returns
+    -------
+    numpy.ndarray
+        Permutation (n,) of the link's local DOF indices, int.
+    """
     rows, _, varying = layout.row_split(link)
     return np.array(list(rows) + list(varying), int)
 
 
 def permute(data: LinkData, order: np.ndarray) -> LinkData:
-    """``data`` with its local DOFs in ``order`` (matrices, loads)."""
+    """``data`` with its local DOFs in ``order`` (matrices, loads).
+
+    Parameters
+    ----------
+    data : LinkData
+        A link's matrices (…, n, n) and load vectors (…, n, c).
+    order : numpy.ndarray
+        Permutation (n,) of the local DOF indices, e.g. from :func:`split_order`.
+
+    Returns
+    -------
+    LinkData
+        The same data with rows (and columns) reordered; the per-length properties unchanged.
+    """
     def both(a):
         return a[..., order, :][..., :, order]
     return LinkData(

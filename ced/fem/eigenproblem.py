@@ -1,4 +1,4 @@
-"""Natural frequencies over the cycle (thesis III.3.1.b, DESIGN §3 "Modal analysis").
+"""Natural frequencies over the cycle (thesis III.3.1.b, docs/theory.md, "Modal analysis").
 
 The generalized eigenproblem (K_eff − ω² M) φ = 0 at frozen configurations, where K_eff holds
 the stiffness-type effects of the scene (elastic, centrifugal, axial stiffening). The

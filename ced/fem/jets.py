@@ -1,7 +1,7 @@
 """Second-order jets: a time-dependent array with its first two time derivatives.
 
 A jet is an array of shape ``(3, ...)`` holding X, Ẋ, Ẍ. The projections of the elastic model
-(DESIGN §3: link-end DOFs are projections of joint translations, and the time derivatives of
+(docs/theory.md: link-end DOFs are projections of joint translations, and the time derivatives of
 those projections belong to the exact equations) are products of rotation matrices; carrying
 jets through the products gives Ṗ and P̈ exactly, without finite differences.
 """
@@ -16,6 +16,20 @@ def rotation(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) 
     """Jet of R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]], shape (3, ..., 2, 2).
 
     Uses d/dt cos θ = −ω sin θ, d²/dt² cos θ = −α sin θ − ω² cos θ (and likewise for sin).
+
+    Parameters
+    ----------
+    angle : numpy.ndarray
+        Angle θ, rad.
+    velocity : numpy.ndarray
+        Angular velocity ω = θ̇, rad/s (same shape as ``angle``).
+    acceleration : numpy.ndarray
+        Angular acceleration α = θ̈, rad/s² (same shape as ``angle``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (R, Ṙ, R̈), shape (3, ..., 2, 2).
     """
     c, s = np.cos(angle), np.sin(angle)
     w, a = velocity, acceleration
@@ -30,14 +44,36 @@ def rotation(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) 
 
 
 def constant(x: np.ndarray) -> np.ndarray:
-    """Jet of a constant array."""
+    """Jet of a constant array.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        The value.
+
+    Returns
+    -------
+    numpy.ndarray
+        (x, 0, 0), shape (3,) + x.shape.
+    """
     out = np.zeros((3,) + np.shape(x))
     out[0] = x
     return out
 
 
 def matmul(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Jet of X Y by the Leibniz rule: (XY)' = X'Y + XY', (XY)'' = X''Y + 2X'Y' + XY''."""
+    """Jet of X Y by the Leibniz rule: (XY)' = X'Y + XY', (XY)'' = X''Y + 2X'Y' + XY''.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Jets (3, ..., a, b) and (3, ..., b, c).
+
+    Returns
+    -------
+    numpy.ndarray
+        The jet of X Y, (3, ..., a, c).
+    """
     return np.stack([
         x[0] @ y[0],
         x[1] @ y[0] + x[0] @ y[1],
@@ -46,12 +82,34 @@ def matmul(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def transpose(x: np.ndarray) -> np.ndarray:
-    """Jet of Xᵀ (last two axes)."""
+    """Jet of Xᵀ (last two axes).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        A jet (3, ..., a, b).
+
+    Returns
+    -------
+    numpy.ndarray
+        The jet of Xᵀ, (3, ..., b, a) (a view).
+    """
     return np.swapaxes(x, -1, -2)
 
 
 def inverse(x: np.ndarray) -> np.ndarray:
-    """Jet of X⁻¹: (X⁻¹)' = −X⁻¹ X' X⁻¹, (X⁻¹)'' = −X⁻¹ (X'' Y + 2 X' Y') with Y = X⁻¹."""
+    """Jet of X⁻¹: (X⁻¹)' = −X⁻¹ X' X⁻¹, (X⁻¹)'' = −X⁻¹ (X'' Y + 2 X' Y') with Y = X⁻¹.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        A jet (3, ..., n, n) of an invertible matrix.
+
+    Returns
+    -------
+    numpy.ndarray
+        The jet of X⁻¹, (3, ..., n, n).
+    """
     y0 = np.linalg.inv(x[0])
     y1 = -y0 @ x[1] @ y0
     y2 = -y0 @ (x[2] @ y0 + 2.0 * (x[1] @ y1))

@@ -1,4 +1,4 @@
-"""Recovery of deflections, strains and stresses from local link DOFs (DESIGN §3 "Recovery").
+"""Recovery of deflections, strains and stresses from local link DOFs (docs/theory.md).
 
 Stations are normalized positions ξ ∈ [0, 1] along each link, ξ = 0 and 1 included.
 """
@@ -63,7 +63,23 @@ def link_fields(
 
 def deflection(q: np.ndarray, operator_v: np.ndarray, stations: np.ndarray) -> np.ndarray:
     """Transverse deflection relative to the chord through the deformed end joints, m
-    (case, step, station): the ``deflection`` of :func:`link_fields` alone."""
+    (case, step, station): the ``deflection`` of :func:`link_fields` alone.
+
+    Parameters
+    ----------
+    q : numpy.ndarray
+        Local link DOFs, shape (case, step, n).
+    operator_v : numpy.ndarray
+        Recovery operator of the transverse displacement v, shape (case, station, n) (or
+        (station, n)).
+    stations : numpy.ndarray
+        Normalized stations ξ ∈ [0, 1], shape (station,); the first and last are the link ends.
+
+    Returns
+    -------
+    numpy.ndarray
+        Deflection, m, shape (case, step, station).
+    """
     v = q @ np.swapaxes(operator_v, -1, -2)
     xi = np.asarray(stations)[None, None, :]
     return v - ((1.0 - xi) * v[..., :1] + xi * v[..., -1:])
@@ -78,6 +94,17 @@ def peaks(field: np.ndarray) -> np.ndarray:
     so its error would not converge smoothly under step refinement; the parabola's error is
     O(Δt³) and smooth, which the error estimate (``ced.auto.error_estimate``) relies on. Steps
     must be equally spaced (they are: one step size per case).
+
+    Parameters
+    ----------
+    field : numpy.ndarray
+        A recovered field (stress in Pa, deflection in m, …), shape (case, step, link, station),
+        sampled at equally spaced steps.
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak of ``|field|``, in the field's unit, shape (case, link).
     """
     magnitude = np.abs(field)
     n = magnitude.shape[1]

@@ -19,7 +19,18 @@ __all__ = ["Batch", "make_batch", "structure_key", "case_family", "step_count"]
 
 
 def case_family(scene: dict) -> str:
-    """Family of the scene's mechanism (Grashof class, ``slider_crank`` or ``single_link``)."""
+    """Family of the scene's mechanism (Grashof class, ``slider_crank`` or ``single_link``).
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    str
+        The family name.
+    """
     mech = scene["mechanism"]
     if mech["type"] == "four_bar":
         return classify(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
@@ -28,13 +39,36 @@ def case_family(scene: dict) -> str:
 
 def step_count(scene: dict) -> int:
     """Number of time steps of a scene: revolutions × steps per revolution (each input period
-    2π/Ω divided evenly; the step size is :attr:`Batch.step_size`)."""
+    2π/Ω divided evenly; the step size is :attr:`Batch.step_size`).
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (its ``time.revolutions`` and ``time.steps_per_revolution``).
+
+    Returns
+    -------
+    int
+        Number of time steps.
+    """
     t = scene["time"]
     return int(round(t["revolutions"] * t["steps_per_revolution"]))
 
 
 def structure_key(scene: dict) -> tuple:
-    """Scenes with equal keys can be solved in one vectorized batch."""
+    """Scenes with equal keys can be solved in one vectorized batch.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene.
+
+    Returns
+    -------
+    tuple
+        Mechanism type, step count, output sampling and stations, discretization, flexible links,
+        effects, time block and modal block.
+    """
     n_steps = step_count(scene)
     disc = scene["discretization"]
     return (
@@ -113,7 +147,7 @@ _LENGTH_KEYS = {
 
 def _drive(scene: dict, family: str) -> tuple[float, float]:
     """(initial angle, amplitude) of the input: rotation from θ0, or θ_mid + A sin(Ωt) with A a
-    fraction of the feasible half-range for rocker-input families (DESIGN §3)."""
+    fraction of the feasible half-range for rocker-input families (docs/theory.md)."""
     drive, mech = scene["drive"], scene["mechanism"]
     if mech["type"] != "four_bar":
         return drive["initial_angle"], math.nan
@@ -146,7 +180,19 @@ def _body_properties(scenes: list[dict], lengths: dict[str, np.ndarray]) -> Body
 
 
 def make_batch(scenes: list[dict]) -> Batch:
-    """Collect the per-case parameters of structurally identical normalized scenes."""
+    """Collect the per-case parameters of structurally identical normalized scenes.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes with equal :func:`structure_key`.
+
+    Returns
+    -------
+    Batch
+        Per-case arrays (leading ``case`` axis): lengths in m, speed in rad/s, step size in s,
+        initial angle and amplitude in rad, body properties and gravity in m/s².
+    """
     kind = scenes[0]["mechanism"]["type"]
     families = [case_family(s) for s in scenes]
     drives = [_drive(s, f) for s, f in zip(scenes, families)]

@@ -1,4 +1,4 @@
-"""The elastic response of a batch: start, march, recover, flag (DESIGN §3).
+"""The elastic response of a batch: start, march, recover, flag (docs/theory.md).
 
 Integrates the KED model (:mod:`ced.response.model`) from the requested start state
 (``undeformed``, ``quasi_static`` or the exact ``periodic`` steady state of
@@ -51,7 +51,8 @@ def _near_singular(batch: Batch) -> np.ndarray:
 
 def elastic_response(batch: Batch, status: np.ndarray,
                      peaks_only: bool = False) -> dict[str, np.ndarray]:
-    """Elastic variables of DESIGN §5 for a batch (arrays with a leading case axis).
+    """Elastic variables of the dataset (docs/reference/dataset.md) for a batch, arrays with a
+    leading case axis.
 
     ``status`` (case,) holds the flags of the rigid analysis; the returned ``status`` adds the
     elastic ones (resonant, parametrically_unstable, large_deflection, near_singular where the
@@ -59,6 +60,21 @@ def elastic_response(batch: Batch, status: np.ndarray,
     peaks, the modal analysis and the status alone — what an error estimate's companion or a
     pilot needs — without the station fields, the quasi-static response (dynamic
     amplification) and the forced-resonance check.
+
+    Parameters
+    ----------
+    batch : Batch
+        The batch of cases.
+    status : numpy.ndarray
+        Status flags of the rigid analysis, shape (case,), int.
+    peaks_only : bool, optional
+        Return only the peaks, the modal analysis and the status.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Dataset variables (displacements in m, stresses in Pa, frequencies in Hz, …) with a
+        leading case axis, and ``status``.
     """
     model = build_model(batch)
     scene = batch.scenes[0]
@@ -159,7 +175,18 @@ def _expand(layout, period: PeriodTerms, y: np.ndarray, steps: np.ndarray) -> np
 
 def thick_links(batch: Batch) -> np.ndarray:
     """(case,) bool: a flexible link modelled as a beam is shorter than
-    :data:`THICK_LINK_RATIO` × its in-plane section height."""
+    :data:`THICK_LINK_RATIO` × its in-plane section height.
+
+    Parameters
+    ----------
+    batch : Batch
+        The batch of cases (link lengths and section heights in m).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case,), bool.
+    """
     scene = batch.scenes[0]
     flagged = np.zeros(batch.size, bool)
     if scene["discretization"]["formulation"] not in BEAMS:

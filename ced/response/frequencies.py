@@ -27,7 +27,18 @@ BUCKLED_TOLERANCE = 1e-5
 
 def modal_phases(angles: int) -> np.ndarray:
     """``angles`` evenly spaced phases of the input cycle from 0, rad (the ``modal_angle``
-    coordinate: crank angle − initial angle for a rotating input)."""
+    coordinate: crank angle − initial angle for a rotating input).
+
+    Parameters
+    ----------
+    angles : int
+        Number of phases.
+
+    Returns
+    -------
+    numpy.ndarray
+        Phases 2π k/angles, k = 0 … angles − 1, rad, shape (angles,).
+    """
     return 2.0 * math.pi * np.arange(angles) / angles
 
 
@@ -88,6 +99,17 @@ def buckled(frequency: np.ndarray) -> np.ndarray:
     frequency −√|λ|/2π. With axial stiffening, a link compressed beyond its Euler load has one (the
     linear model then describes a link that would buckle); centrifugal softening of a
     near-mechanism mode (change points) gives one too.
+
+    Parameters
+    ----------
+    frequency : numpy.ndarray
+        Natural frequencies, Hz, shape (case, modal_angle, mode), negative for a negative
+        eigenvalue.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case,), bool.
     """
     scale = np.abs(frequency).max(axis=(1, 2), keepdims=True)
     return (frequency < -BUCKLED_TOLERANCE * scale).any(axis=(1, 2))
@@ -95,7 +117,20 @@ def buckled(frequency: np.ndarray) -> np.ndarray:
 
 def check_modes(scene: dict, ny: int) -> None:
     """A discretized model with ny DOFs has exactly ny modes: asking for more is an impossible
-    value, reported before any work rather than padded with NaN."""
+    value, reported before any work rather than padded with NaN.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (its ``modal`` block, if any).
+    ny : int
+        Number of elastic DOFs of the discretized model.
+
+    Raises
+    ------
+    SceneError
+        ``modal.modes`` is larger than ``ny``.
+    """
     modal = scene.get("modal")
     if modal and ny and modal["modes"] > ny:
         raise SceneError(

@@ -10,7 +10,7 @@ with every array carrying optional leading batch dimensions (cases): ``M, C, K``
 monodromy matrices). Units are those of the caller: with q in m and t in s, v is m/s, ẍ is m/s²,
 the step h is s, and M, C, K, F must be consistent (kg, N s/m, N/m, N).
 
-Schemes (DESIGN §3 "Time integration"):
+Schemes (docs/theory.md, "Time integration"):
 
 * Newmark family (Newmark 1959; HHT-α, Hilber, Hughes & Taylor 1977; generalized-α, Chung &
   Hulbert 1993) in the form of Arnold & Brüls (2007), which stays second-order accurate for
@@ -240,6 +240,18 @@ def make_integrator(name: str, **params: float) -> Integrator:
     ValueError
         Unknown name (the message lists the allowed names), unknown parameter (lists the
         scheme's parameters) or out-of-range value (names the parameter and its range).
+
+    Parameters
+    ----------
+    name : str
+        Scheme name, a key of :data:`INTEGRATORS` (``"newmark"``, ``"hht"``, …).
+    **params : float
+        The scheme's parameters (dimensionless), e.g. ``alpha``, ``beta``, ``gamma``.
+
+    Returns
+    -------
+    Integrator
+        A :class:`NewmarkFamily` or :class:`Houbolt` scheme.
     """
     if name not in INTEGRATORS:
         raise ValueError(f"unknown integrator {name!r}; allowed: {', '.join(sorted(INTEGRATORS))}")
@@ -252,7 +264,18 @@ def make_integrator(name: str, **params: float) -> Integrator:
 
 def integrator_for(time: Mapping) -> Integrator:
     """The integrator a normalized scene's ``time`` block asks for (its scheme and the
-    parameters that scheme uses), e.g. ``{"integrator": "hht", "alpha": -0.1, …}``."""
+    parameters that scheme uses), e.g. ``{"integrator": "hht", "alpha": -0.1, …}``.
+
+    Parameters
+    ----------
+    time : Mapping
+        The ``time`` block of a normalized scene.
+
+    Returns
+    -------
+    Integrator
+        See :func:`make_integrator`.
+    """
     name = time["integrator"]
     return make_integrator(name, **{key: time[key] for key in _PARAMS[name]})
 
@@ -440,7 +463,24 @@ def _acceleration(terms0: Terms, q: np.ndarray, v: np.ndarray, solve: Solve) -> 
 def start(terms: Callable[[int], Terms], q0: np.ndarray, v0: np.ndarray,
           solve: Solve = np.linalg.solve) -> State:
     """State at step 0 from q0, v0 (column layout): ẍ₀ from the equation of motion and the
-    algorithmic acceleration a₀ = ẍ₀ (Chung & Hulbert)."""
+    algorithmic acceleration a₀ = ẍ₀ (Chung & Hulbert).
+
+    Parameters
+    ----------
+    terms : callable
+        ``terms(k)`` → (M, C, K, F) at step k (C may be None); only step 0 is used.
+    q0 : numpy.ndarray
+        Initial displacements, m, column layout (case, n, r).
+    v0 : numpy.ndarray
+        Initial velocities, m/s, shape of ``q0``.
+    solve : callable, optional
+        Linear solver ``solve(A, B)``; default :func:`numpy.linalg.solve`.
+
+    Returns
+    -------
+    State
+        (q, v, ẍ₀, a₀) at step 0.
+    """
     acc = _acceleration(terms(0), q0, v0, solve)
     return State(q0, v0, acc, acc)
 
@@ -448,7 +488,25 @@ def start(terms: Callable[[int], Terms], q0: np.ndarray, v0: np.ndarray,
 def from_independent(terms: Callable[[int], Terms], scheme: Integrator, x0, x1, x2,
                      solve: Solve = np.linalg.solve) -> State:
     """State at step 0 from its independent part: (q, v, a) of the Newmark family, or the
-    history (q_n, q_{n−1}, q_{n−2}) of Houbolt (:func:`independent` inverted)."""
+    history (q_n, q_{n−1}, q_{n−2}) of Houbolt (:func:`independent` inverted).
+
+    Parameters
+    ----------
+    terms : callable
+        ``terms(k)`` → (M, C, K, F) at step k; only step 0 is used (Newmark family).
+    scheme : Integrator
+        The scheme.
+    x0, x1, x2 : numpy.ndarray
+        The independent part, each (case, n, r): q (m), v (m/s), a (m/s²) for the Newmark family;
+        q_n, q_{n−1}, q_{n−2} (m) for Houbolt.
+    solve : callable, optional
+        Linear solver ``solve(A, B)``; default :func:`numpy.linalg.solve`.
+
+    Returns
+    -------
+    State
+        The state to march from.
+    """
     if isinstance(scheme, Houbolt):
         return State(x0, None, None, None, (x1, x2))
     return State(x0, x1, _acceleration(terms(0), x0, x1, solve), x2)
@@ -457,7 +515,20 @@ def from_independent(terms: Callable[[int], Terms], scheme: Integrator, x0, x1, 
 def independent(scheme: Integrator, state: State) -> np.ndarray:
     """The independent part of a state stacked along axis −2: (case, 3n, r). Newmark family:
     (q, v, a); Houbolt: (q_n, q_{n−1}, q_{n−2}). One period of :func:`march` maps it linearly
-    (the monodromy matrix of the periodic steady state)."""
+    (the monodromy matrix of the periodic steady state).
+
+    Parameters
+    ----------
+    scheme : Integrator
+        The scheme.
+    state : State
+        A state in column layout (case, n, r).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case, 3n, r).
+    """
     if isinstance(scheme, Houbolt):
         return np.concatenate([state.q, *state.past], axis=-2)
     return np.concatenate([state.q, state.v, state.a], axis=-2)
@@ -465,7 +536,20 @@ def independent(scheme: Integrator, state: State) -> np.ndarray:
 
 def forced_columns(terms: Callable[[int], Terms], r: int) -> Callable[[int], Terms]:
     """``terms`` with its load vector F (..., n) moved into column 0 of r columns: the other
-    columns are homogeneous solutions sharing each step's factorization (shooting)."""
+    columns are homogeneous solutions sharing each step's factorization (shooting).
+
+    Parameters
+    ----------
+    terms : callable
+        ``terms(k)`` → (M, C, K, F) at step k, F (..., n) in N.
+    r : int
+        Number of columns.
+
+    Returns
+    -------
+    callable
+        ``columns(k)`` → (M, C, K, loads) with loads (..., n, r).
+    """
     def columns(k: int) -> Terms:
         M, C, K, F = terms(k)
         loads = np.zeros(F.shape + (r,))
@@ -569,7 +653,7 @@ def integrate(
     Returns
     -------
     q, v, acc : ndarray
-        Each of shape (n_steps + 1, *shape), shape being q0's broadcast with v0, F and the
+        Each of shape (n_steps + 1,) + shape, shape being q0's broadcast with v0, F and the
         batch dimensions of M (q0.shape when q0 already carries them). ``acc`` satisfies the
         equation of motion at every t_k.
 
@@ -662,7 +746,22 @@ def amplification_matrix(integrator: Integrator, omega_h: float | np.ndarray,
 
 def spectral_radius(integrator: Integrator, omega_h: float | np.ndarray,
                     xi: float | np.ndarray = 0.0) -> np.ndarray:
-    """Largest eigenvalue modulus of :func:`amplification_matrix` (dimensionless)."""
+    """Largest eigenvalue modulus of :func:`amplification_matrix` (dimensionless).
+
+    Parameters
+    ----------
+    integrator : Integrator
+        The scheme.
+    omega_h : float or numpy.ndarray
+        Mode frequency times step size, ω h, rad per step.
+    xi : float or numpy.ndarray, optional
+        Physical damping ratio ξ of the mode (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        Spectral radius ρ (dimensionless), broadcast shape of ``omega_h`` and ``xi``.
+    """
     # Accurate up to ωh ~ 1e6 without balancing: the entries stay O(1) there.
     return np.abs(np.linalg.eigvals(amplification_matrix(integrator, omega_h, xi))).max(axis=-1)
 
@@ -678,6 +777,16 @@ def stability_limit(integrator: Integrator) -> float:
     --------
     >>> stability_limit(newmark(0.0, 0.5)), stability_limit(newmark())
     (2.0, inf)
+
+    Parameters
+    ----------
+    integrator : Integrator
+        The scheme.
+
+    Returns
+    -------
+    float
+        The limit on ω h, rad per step (``inf`` when unconditionally stable).
     """
     if isinstance(integrator, NewmarkFamily) and integrator.alpha_m == integrator.alpha_f == 0.0:
         margin = 0.5 * integrator.gamma - integrator.beta

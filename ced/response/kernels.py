@@ -29,7 +29,20 @@ _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 def lu_factor(A: np.ndarray, piv: np.ndarray) -> bool:
     """LU with partial pivoting of the square A (n, n) in place (L unit lower, U upper, as
     LAPACK getrf); ``piv[k]`` the row swapped with row k. Returns False if a pivot is zero or
-    not finite (singular or corrupted matrix)."""
+    not finite (singular or corrupted matrix).
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        Square matrix (n, n), float64, overwritten by its L and U factors.
+    piv : numpy.ndarray
+        Pivot indices (n,), int64, filled.
+
+    Returns
+    -------
+    bool
+        True when the factorization succeeded.
+    """
     n = A.shape[0]
     for k in range(n):
         p = k
@@ -59,7 +72,17 @@ def lu_factor(A: np.ndarray, piv: np.ndarray) -> bool:
 
 @nb.njit(**_JIT)
 def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
-    """Solve A x = b in place for one right-hand side x (n,), given A's :func:`lu_factor`."""
+    """Solve A x = b in place for one right-hand side x (n,), given A's :func:`lu_factor`.
+
+    Parameters
+    ----------
+    LU : numpy.ndarray
+        The factors (n, n) from :func:`lu_factor`.
+    piv : numpy.ndarray
+        The pivot indices (n,) from :func:`lu_factor`.
+    x : numpy.ndarray
+        The right-hand side b (n,), overwritten by the solution.
+    """
     n = x.shape[0]
     for k in range(n):
         p = piv[k]
@@ -82,7 +105,17 @@ def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
 @nb.njit(**_JIT)
 def lu_solve_columns(LU: np.ndarray, piv: np.ndarray, X: np.ndarray) -> None:
     """Solve A X = B in place for B (n, r), given A's :func:`lu_factor`; the loops run along
-    the r columns (contiguous), so that many right-hand sides vectorize."""
+    the r columns (contiguous), so that many right-hand sides vectorize.
+
+    Parameters
+    ----------
+    LU : numpy.ndarray
+        The factors (n, n) from :func:`lu_factor`.
+    piv : numpy.ndarray
+        The pivot indices (n,) from :func:`lu_factor`.
+    X : numpy.ndarray
+        The right-hand sides B (n, r), C-contiguous, overwritten by the solutions.
+    """
     n, r = X.shape
     for k in range(n):
         p = piv[k]
@@ -237,6 +270,17 @@ def static_period(K, F, y, ok):
     """Quasi-static response K y = F at every step of the period, in place.
 
     K (case, P, n, n), F (case, P, n), y (case, P, n); ``ok[c]`` False where a K is singular.
+
+    Parameters
+    ----------
+    K : numpy.ndarray
+        Stiffness matrices (SI units: N/m for translations), shape (case, P, n, n).
+    F : numpy.ndarray
+        Load vectors, N, shape (case, P, n).
+    y : numpy.ndarray
+        Output displacements, m, shape (case, P, n); NaN at singular steps.
+    ok : numpy.ndarray
+        Per-case success flags, shape (case,), bool; set False, never True.
     """
     ncase, P, n = K.shape[0], K.shape[1], K.shape[2]
     A = np.empty((n, n))
@@ -260,6 +304,19 @@ def expand(P0, y, steps, interior_rows, z):
     DOFs y[nfree:] map one to one onto the rows ``interior_rows`` of z
     (:meth:`ced.fem.coupling.Layout.expand`). y (case, nout, ny); steps (nout,) int;
     z (case, nout, nz) filled.
+
+    Parameters
+    ----------
+    P0 : numpy.ndarray
+        Joint-coordinate columns of the projection, shape (case, P, nz, nfree).
+    y : numpy.ndarray
+        Independent DOFs, m, shape (case, nout, ny).
+    steps : numpy.ndarray
+        Step index of each output, shape (nout,), int.
+    interior_rows : numpy.ndarray
+        Rows of z of the interior DOFs y[nfree:], shape (ny − nfree,), int.
+    z : numpy.ndarray
+        Output joint and link displacements, m, shape (case, nout, nz), overwritten.
     """
     ncase, P, nz, nfree = P0.shape
     for c in range(ncase):

@@ -51,6 +51,16 @@ def build_model(batch: Batch) -> Model:
     """Local matrices of every link of every case, the DOF layout and recovery operators.
 
     The element modules broadcast over cases, so each link is built once for the batch.
+
+    Parameters
+    ----------
+    batch : Batch
+        Structurally identical cases (their scenes, link lengths in m, materials and sections).
+
+    Returns
+    -------
+    Model
+        Link matrices, DOF layout, recovery operators and effects of the batch.
     """
     scene = batch.scenes[0]
     topo = batch.topology
@@ -156,6 +166,26 @@ def terms_at(
     ``effects`` defaults to the scene's; the modal analysis passes them without damping.
     ``extras`` asks for ``elastic_mass`` / ``elastic_stiffness`` as well (see
     :class:`ced.fem.effect_terms.SystemTerms`).
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model from :func:`build_model`.
+    times : numpy.ndarray
+        Times, s, shape (case, step).
+    effects : set of str, optional
+        Effects to include; default the scene's.
+    extras : frozenset of str, optional
+        Extra terms to form: ``"elastic_mass"``, ``"elastic_stiffness"``.
+
+    Returns
+    -------
+    terms : SystemTerms
+        M, C, K (case, step, ny, ny) and F (case, step, ny) in the independent elastic
+        coordinates y.
+    projection : numpy.ndarray
+        The joint-coordinate columns of the projection z = P y, shape (case, step, nz, nfree)
+        (:func:`ced.fem.coupling.projection`).
     """
     batch, layout = model.batch, model.layout
     effects = model.effects if effects is None else effects

@@ -82,6 +82,13 @@ def interpolation_weights(points: np.ndarray, samples: int):
 
     Returns (index (m, STENCIL) int, weight (m, STENCIL)): the value at a point is
     Σ_j weight[:, j] × value[index[:, j]].
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        Points in sample units, shape (m,).
+    samples : int
+        Number of samples per period (the index wraps modulo it).
     """
     points = np.asarray(points, float)
     base = np.floor(points)
@@ -179,6 +186,26 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
     evaluated at every step otherwise, or when ``exact``: the check sees the samples only, so a
     motion with features narrower than their spacing (a case ``near_singular``) must ask for it.
     Samples that fall on steps are reused when every step has to be evaluated after all.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    h : numpy.ndarray
+        Step size per case, s, shape (case,).
+    period : int
+        Steps per input period P.
+    samples : int, optional
+        Initial number of samples per period (doubled until accurate).
+    tolerance : float, optional
+        Relative interpolation error allowed (dimensionless).
+    exact : bool, optional
+        Evaluate every step.
+
+    Returns
+    -------
+    PeriodTerms
+        M, C, K, F and the projection at the P steps, each (case, P, …).
     """
     ncase = model.batch.size
     n = samples

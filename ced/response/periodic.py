@@ -33,6 +33,23 @@ def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period:
     ((q, v, a) of the Newmark family, the history of Houbolt). The periodic state solves
     (I − Φ) s_0 = p — by least squares where I − Φ is singular, so exact resonance stays finite.
 
+    Parameters
+    ----------
+    scheme : Integrator
+        The time-integration scheme.
+    marcher : Marcher
+        Marches the period's terms with step ``h``.
+    h : numpy.ndarray
+        Step size per case, s, shape (case,).
+    steps_per_period : int
+        Steps in one input period.
+    ny : int
+        Number of elastic DOFs n.
+    ncase : int
+        Number of cases.
+    floquet : bool, optional
+        Also compute the Floquet multipliers and the resonance flag.
+
     Returns
     -------
     state : (q0, v0, a0)
@@ -91,6 +108,22 @@ def resonant(mu: np.ndarray, V: np.ndarray, p: np.ndarray, ny: int) -> np.ndarra
     With Φ = V diag(μ) V⁻¹ the periodic state is Σ_i V_i c_i/(1 − μ_i), c = V⁻¹p; the share of
     the modes with |1 − μ_i| < RESONANCE_GAP in its displacement part is compared with
     RESONANCE_SHARE.
+
+    Parameters
+    ----------
+    mu : numpy.ndarray
+        Floquet multipliers, shape (case, 3 ny), complex.
+    V : numpy.ndarray
+        Eigenvectors of the monodromy matrix Φ, shape (case, 3 ny, 3 ny).
+    p : numpy.ndarray
+        Forced part of the state after one period, shape (case, 3 ny).
+    ny : int
+        Number of elastic DOFs (the displacement part is the first ny rows).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case,), bool.
     """
     near = np.abs(1.0 - mu) < RESONANCE_GAP
     flagged = np.zeros(mu.shape[0], bool)

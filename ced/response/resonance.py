@@ -50,6 +50,15 @@ _BLOCK_BYTES = 50e6
 def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES):
     """Frozen modes over one input period and the load they carry.
 
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    modes : int, optional
+        Number of modes (at most ny).
+    samples : int, optional
+        Number of phases sampled over the period.
+
     Returns
     -------
     frequency : (case, sample, mode) rad/s, negative for a negative eigenvalue
@@ -100,7 +109,18 @@ def _damping_ratio(model: Model, omega: np.ndarray) -> np.ndarray:
 
 def forced_resonance(model: Model) -> np.ndarray:
     """(case,) bool: some harmonic k ≤ :data:`HARMONICS` lies in some mode's band and carries
-    load enough to dominate it, eq. (1) of the module docstring."""
+    load enough to dominate it, eq. (1) of the module docstring.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model (input speed Ω in rad/s, effects, damping).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case,), bool.
+    """
     if model.layout.ny == 0:
         return np.zeros(model.batch.size, bool)
     omega, share = cycle_modes(model)

@@ -48,6 +48,18 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     solve of a pilot or an error estimate's companion: the rigid results over one period and
     the elastic peaks, without the histories
     (:func:`ced.response.elastic.elastic_response`).
+
+    Parameters
+    ----------
+    batch : Batch
+        Structurally identical cases (:func:`ced.response.batch.make_batch`).
+    peaks_only : bool, optional
+        Return the rigid results over one period and the elastic peaks only.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The dataset variables.
     """
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
@@ -265,13 +277,13 @@ def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray
 
 
 def simulate(scenes) -> xr.Dataset:
-    """Run one scene or many and return the DESIGN §5 dataset.
+    """Run one scene or many and return the dataset of docs/reference/dataset.md.
 
     Parameters
     ----------
     scenes : path, dict, or an iterable of them
-        Scenes in the format of DESIGN §4. All must share the mechanism type and the number of
-        output steps (one dataset has one ``step`` dimension).
+        Scenes in the format of docs/reference/scene.md. All must share the mechanism type and
+        the number of output steps (one dataset has one ``step`` dimension).
 
     Returns
     -------

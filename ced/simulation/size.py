@@ -140,7 +140,18 @@ MAX_CASES_PER_SOLVE = 256
 def cases_per_solve(scene: dict) -> int:
     """Cases of ``scene``'s structure solved together: as many as fit
     :data:`SOLVER_BUDGET_BYTES` of :func:`solver_bytes`, between 1 and
-    :data:`MAX_CASES_PER_SOLVE`."""
+    :data:`MAX_CASES_PER_SOLVE`.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (its structure: mechanism, discretization, steps, outputs).
+
+    Returns
+    -------
+    int
+        Number of cases per solve.
+    """
     return int(min(MAX_CASES_PER_SOLVE,
                    max(1, SOLVER_BUDGET_BYTES // max(solver_bytes(scene), 1))))
 

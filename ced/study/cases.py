@@ -460,7 +460,18 @@ def modal_requested(config: dict) -> bool:
 
 def estimate_requested(config: dict) -> bool:
     """Whether the study's cases carry an ``error_estimate``: an elastic formulation and
-    ``outputs.error_estimate`` (default true) in the base scene."""
+    ``outputs.error_estimate`` (default true) in the base scene.
+
+    Parameters
+    ----------
+    config : dict
+        A study configuration (its ``base_scene``).
+
+    Returns
+    -------
+    bool
+        True when the cases carry an error estimate.
+    """
     base = config.get("base_scene") or {}
     return _elastic(base) and (base.get("outputs") or {}).get("error_estimate", True) is True
 

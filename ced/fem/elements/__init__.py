@@ -13,7 +13,7 @@ Every formulation module exposes the same pure functions::
     shape_functions(xi, h, phi) -> dict of shape-function arrays
 
 All parameters broadcast over leading batch (case) dimensions. Per link the equations are
-(DESIGN §3)::
+(docs/theory.md)::
 
     M q̈ + 2ω G q̇ + (K + α G − ω² M_w + Σ_k P_k Kg_k) q = L0 b0 + L1 b1 (+ m0 moment_load)
 
@@ -40,7 +40,18 @@ FORMULATIONS: dict[str, ModuleType] = {
 
 
 def formulation(name: str) -> ModuleType:
-    """The module implementing formulation ``name`` (a clear error lists the allowed ones)."""
+    """The module implementing formulation ``name`` (a clear error lists the allowed ones).
+
+    Parameters
+    ----------
+    name : str
+        Formulation name, a key of :data:`FORMULATIONS` (e.g. ``"euler_bernoulli"``).
+
+    Returns
+    -------
+    module
+        The formulation's module (``link_matrices``, ``recovery_matrices``, ``shape_functions``).
+    """
     try:
         return FORMULATIONS[name]
     except KeyError:
@@ -49,10 +60,41 @@ def formulation(name: str) -> ModuleType:
 
 
 def link_matrices(name: str, length, n_elements: int, **params) -> LinkMatrices:
-    """``formulation(name).link_matrices(length, n_elements, **params)``."""
+    """``formulation(name).link_matrices(length, n_elements, **params)``.
+
+    Parameters
+    ----------
+    name : str
+        Formulation name, a key of :data:`FORMULATIONS`.
+    length : array_like
+        Link length L, m (per case; broadcasts).
+    n_elements : int
+        Number of elements along the link.
+    **params
+        Material and section parameters of the formulation (E, G_shear in Pa, rho in kg/m³, area
+        in m², second_moment in m⁴, height in m, …).
+
+    Returns
+    -------
+    LinkMatrices
+        Mass, stiffness and load matrices of the link in its local DOFs.
+    """
     return formulation(name).link_matrices(length, n_elements, **params)
 
 
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
-    """Recovery operators of ``matrices`` with its own formulation's shape functions."""
+    """Recovery operators of ``matrices`` with its own formulation's shape functions.
+
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's matrices (their ``formulation`` selects the module).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
+
+    Returns
+    -------
+    dict
+        Operators (…, st, n) by field name (see each formulation's ``recovery_matrices``).
+    """
     return formulation(matrices.formulation).recovery_matrices(matrices, stations)

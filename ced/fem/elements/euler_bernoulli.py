@@ -85,6 +85,13 @@ def link_matrices(length, n_elements: int, *, E, rho, area, second_moment, G_she
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators mapping the link DOFs q to fields at normalized stations ξ ∈ [0, 1].
 
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's Euler–Bernoulli matrices (length, n_elements).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
+
     Returns
     -------
     dict of (..., st, n) arrays: ``u`` and ``v`` (m), ``rotation`` v' (rad), ``curvature`` v''

@@ -3,7 +3,7 @@ virtual-work integrals common to every formulation and the assembly of a uniform
 
 A formulation only supplies its shape functions at reference points ξ ∈ [0, 1] of an element
 of length h (see :func:`element_integrals` for the keys); everything else is shared, so the
-matrices of all formulations follow from the same virtual work (DESIGN §3, floating frame)::
+matrices of all formulations follow from the same virtual work (docs/theory.md, floating frame)::
 
     δW = ∫ δwᵀ ρA [ẅ + 2ωJẇ + (αJ − ω²I) w] + δθ ρI θ̈ + δεᵀ D ε + P δv' v' − δwᵀ b  ds
 
@@ -87,7 +87,18 @@ class LinkMatrices:
 
 @lru_cache(maxsize=None)
 def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """n-point Gauss–Legendre points and weights on [0, 1] (exact to degree 2n − 1)."""
+    """n-point Gauss–Legendre points and weights on [0, 1] (exact to degree 2n − 1).
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+
+    Returns
+    -------
+    points, weights : numpy.ndarray
+        Each (n,), read-only (cached).
+    """
     x, w = np.polynomial.legendre.leggauss(n)
     x, w = 0.5 * (x + 1.0), 0.5 * w
     x.flags.writeable = w.flags.writeable = False  # cached: shared by every caller
@@ -161,12 +172,41 @@ def assemble_matrix(ke: np.ndarray, n_elements: int, batch: tuple) -> np.ndarray
     ke : (*batch, m, m) shared by every element, or (*batch, e, m, m) per element
     Returns (*batch, n, n). A vectorized scatter-add (``np.bincount``) over all elements and
     the whole batch; element e's DOFs start at node e.
+
+    Parameters
+    ----------
+    ke : numpy.ndarray
+        Element matrix (*batch, m, m), shared by every element, or (*batch, e, m, m) per element.
+    n_elements : int
+        Number of elements e of the chain.
+    batch : tuple
+        The leading batch shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        The link matrix (*batch, n, n).
     """
     return _scatter(ke, n_elements, batch, matrix=True)
 
 
 def assemble_vector(fe: np.ndarray, n_elements: int, batch: tuple) -> np.ndarray:
-    """Sum element vectors (*batch, [e,] m, c) into (*batch, n, c)."""
+    """Sum element vectors (*batch, [e,] m, c) into (*batch, n, c).
+
+    Parameters
+    ----------
+    fe : numpy.ndarray
+        Element vectors (*batch, m, c), shared by every element, or (*batch, e, m, c).
+    n_elements : int
+        Number of elements e of the chain.
+    batch : tuple
+        The leading batch shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        The link vectors (*batch, n, c).
+    """
     return _scatter(fe, n_elements, batch, matrix=False)
 
 
@@ -190,6 +230,20 @@ def scatter_rows(values: np.ndarray, elements: np.ndarray, n: int) -> np.ndarray
     """Rows of a (*batch, st, n) operator from element-level values (*batch, st, m).
 
     ``elements`` (st,) is the element of each row; its m DOFs start at node ``elements``.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Element-level operator rows (*batch, st, m).
+    elements : numpy.ndarray
+        Element index of each row, shape (st,), int.
+    n : int
+        Number of link DOFs.
+
+    Returns
+    -------
+    numpy.ndarray
+        The operator (*batch, st, n), zero outside each row's element.
     """
     st, m = values.shape[-2:]
     out = np.zeros(values.shape[:-2] + (st, n))
@@ -205,6 +259,15 @@ def station_elements(stations, n_elements: int, tol: float = 1e-9):
     elsewhere (and at the link ends) both sides are the same element. Averaging an operator
     over the two sides gives the mean of the one-sided values at nodes (used for the
     discontinuous Euler–Bernoulli curvature), and the exact value elsewhere.
+
+    Parameters
+    ----------
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1], shape (st,).
+    n_elements : int
+        Number of elements n_e along the link.
+    tol : float, optional
+        Tolerance on ξ n_e for a station to count as lying on a node.
 
     Returns
     -------

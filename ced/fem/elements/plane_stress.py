@@ -5,15 +5,16 @@ Geometry and mesh
 -----------------
 A link of length L and in-plane height h (the section's ``height``; out-of-plane thickness
 t = A/h, so a rectangle b × h is exact) occupies x ∈ [0, L], y ∈ [−h/2, h/2] in its own
-frame (x from the first joint to the second, DESIGN §3). It is meshed with ``n_elements`` ×
-``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node Lagrange. Nodes
-are numbered column by column along x (bottom to top in each column), two DOFs (u, v) each.
+frame (x from the first joint to the second, docs/theory.md). It is meshed with
+``n_elements`` × ``elements_across`` equal rectangles, 8-node serendipity (default) or 9-node
+Lagrange. Nodes are numbered column by column along x (bottom to top in each column), two DOFs
+(u, v) each.
 3 × 3 Gauss quadrature is exact on rectangles for every matrix below (highest degree 4 per
 direction: NᵀN, s² N_xᵀN_x), and full integration of quadratic rectangles does not lock in
 bending (u = −κxy, v = κ(x² + νy²)/2 lie in both spaces).
 
-Physics (DESIGN §3, thesis II.3; σ = D ε, plane stress)
--------------------------------------------------------
+Physics (docs/theory.md, thesis II.3; σ = D ε, plane stress)
+------------------------------------------------------------
 ::
 
     K   = ∫ Bᵀ D B t dA,   D = E/(1 − ν²) [[1, ν, 0], [ν, 1, 0], [0, 0, (1 − ν)/2]]
@@ -25,7 +26,7 @@ Physics (DESIGN §3, thesis II.3; σ = D ε, plane stress)
 
 *Geometric stiffness.* The beam formulations carry the axial force N(s) as P ∫v'ᵀv' ds. Here
 N(s) is spread uniformly over the section, σ_xx = N/A, and acts — as the continuum initial-stress
-term ∫ σ_ij w_,iᵀ w_,j dV does — on the x-derivatives of both displacement components. The
+term ``∫ σ_ij w_,iᵀ w_,j dV`` does — on the x-derivatives of both displacement components. The
 u_x part adds N/(EA) relative to the axial stiffness (negligible, and what Green–Lagrange
 strain gives); the shear and bending stresses of the rigid motion are left out, as in the
 beams.
@@ -103,6 +104,8 @@ _LOCAL = [(i, j) for j in range(3) for i in range(3)]  # local node grid (x inde
 class ContinuumLinkMatrices(LinkMatrices):
     """:class:`LinkMatrices` plus the mesh and material data of the continuum.
 
+    Attributes
+    ----------
     across_load : (..., n, 2) ∫ Nᵀ y t dA, m³; f += across_load @ (ρα, ρω²) is the
         y-dependent part of the rigid d'Alembert body force (see the module docstring)
     elements_across : elements over the height
@@ -129,6 +132,18 @@ def shape_functions(xi, eta, nodes_per_element: int = 8) -> dict:
 
     ``N``, ``dxi`` = ∂N/∂ξ, ``deta`` = ∂N/∂η; local nodes in the order of the 3 × 3 grid
     (x index fastest), without the centre for the 8-node serendipity element.
+
+    Parameters
+    ----------
+    xi, eta : array_like
+        Reference coordinates ξ, η ∈ [−1, 1] of the points, shape (g,).
+    nodes_per_element : int, optional
+        8 (serendipity) or 9 (Lagrange).
+
+    Returns
+    -------
+    dict
+        ``N``, ``dxi``, ``deta``, each (g, m) with m = ``nodes_per_element``.
     """
     xi, eta = np.asarray(xi, float), np.asarray(eta, float)
     if nodes_per_element == 9:
@@ -170,6 +185,15 @@ def _local_grid(nodes_per_element: int):
 # ------------------------------------------------------------------------------------ mesh
 def mesh(n_elements: int, elements_across: int, nodes_per_element: int = 8) -> dict:
     """Topology of the structured mesh (independent of sizes).
+
+    Parameters
+    ----------
+    n_elements : int
+        Elements along the link, ne.
+    elements_across : int
+        Elements across the section height, na.
+    nodes_per_element : int, optional
+        8 or 9 (see :func:`shape_functions`).
 
     Returns
     -------
@@ -438,7 +462,18 @@ def _face_dofs(order, face_slots):
 def rigid_modes(matrices: ContinuumLinkMatrices) -> np.ndarray:
     """(..., n, 3) link-DOF vectors of the rigid motions: unit translations along x and y and a
     unit (small) rotation about pin 0, d = (−y, x). The resultant of a load vector f is
-    rigid_modes(lm)[..., :2]ᵀ f (the face DOFs are relative, so Σ f is not the resultant)."""
+    rigid_modes(lm)[..., :2]ᵀ f (the face DOFs are relative, so Σ f is not the resultant).
+
+    Parameters
+    ----------
+    matrices : ContinuumLinkMatrices
+        The link's matrices (node coordinates, m, and the DOF transform).
+
+    Returns
+    -------
+    numpy.ndarray
+        The rigid-motion vectors (…, n, 3): translations in m per m, rotation in m per rad.
+    """
     xy = matrices.node_coordinates
     d = np.zeros(xy.shape[:-2] + (2 * xy.shape[-2], 3))
     d[..., 0::2, 0] = 1.0
@@ -452,6 +487,13 @@ def rigid_modes(matrices: ContinuumLinkMatrices) -> np.ndarray:
 def recovery_matrices(matrices: ContinuumLinkMatrices, stations) -> dict:
     """Operators (..., st, n) mapping the link DOFs q to fields at normalized stations
     ξ ∈ [0, 1].
+
+    Parameters
+    ----------
+    matrices : ContinuumLinkMatrices
+        The link's plane-stress matrices (mesh, length and height in m, E in Pa, ν).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
 
     Returns
     -------

@@ -31,6 +31,15 @@ def shape_functions(xi, length, phi=None) -> dict:
     """Rigid-field "shape functions" at normalized points ξ (g,) of a link of length L.
 
     Returns dict of (..., g, 3) arrays with the keys of the beam elements; strains are zero.
+
+    Parameters
+    ----------
+    xi : array_like
+        Normalized points ξ ∈ [0, 1], shape (g,).
+    length : array_like
+        Link length L, m (per case; broadcasts).
+    phi : optional
+        Unused: the signature matches the beam elements'.
     """
     L = np.asarray(length, float)[..., None]
     x = np.broadcast_to(np.asarray(xi, float), L.shape[:-1] + np.shape(xi))
@@ -80,7 +89,20 @@ def link_matrices(length, n_elements=None, *, rho, area, second_moment, E=None, 
 
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators (..., st, 3) at normalized stations: ``u`` = u0, ``v`` = v0 + ξLφ,
-    ``rotation`` = φ, and zero ``curvature`` and ``axial_strain``."""
+    ``rotation`` = φ, and zero ``curvature`` and ``axial_strain``.
+
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The rigid link's matrices (its ``length``, m).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
+
+    Returns
+    -------
+    dict
+        Operators (…, st, 3) by field name.
+    """
     sh = shape_functions(np.asarray(stations, float), matrices.length)
     elements = np.zeros(np.shape(stations), int)
     return {name: scatter_rows(sh[key], elements, 3) for name, key in

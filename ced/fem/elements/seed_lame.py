@@ -3,14 +3,14 @@
 Physics (thesis II.5, eqs. 1–2, 10–11, 19–20, restated at the head of III.2)
 -----------------------------------------------------------------------------
 Dropping every derivative across the link (∂/∂b = 0) leaves, for the global components
-u = (u_x, u_y) of a link of direction e = ((x2 − x1)/l, (y2 − y1)/l) = (cos θ, sin θ),
+u = (u_x, u_y) of a link of direction e = ((x2 − x1)/l, (y2 − y1)/l) = (cos θ, sin θ)::
 
     [a  b ]            ρ                  a  = cos²θ (1 − 2ν)⁻¹ + 1
     [b  a'] u_aa + … = ─ u_tt,            a' = sin²θ (1 − 2ν)⁻¹ + 1
                        μ                  b  = sin θ cos θ (1 − 2ν)⁻¹,
 
 i.e. μ [I + (1 − 2ν)⁻¹ e eᵀ] u_aa + (body force) = ρ u_tt. Since μ(1 − 2ν)⁻¹ = λ + μ, rotating
-to the link frame (u = R w, Rᵀ e = e_x) gives two uncoupled wave equations,
+to the link frame (u = R w, Rᵀ e = e_x) gives two uncoupled wave equations::
 
     axial       (λ + 2μ) u'' = ρ ü         (speed c1 = √((λ + 2μ)/ρ), thesis III.3.1.a)
     transverse        μ v''  = ρ v̈         (speed c2 = √(μ/ρ)).
@@ -43,7 +43,7 @@ assembled by expansion (III.2.1). Interpolation error O(h⁶) (III.2.3), eigenva
 O(h^{2(p+1−m)}) = O(h¹⁰) (p = 5, m = 1; measured 9.7–10.3).
 
 OCR and typesetting errors of the thesis corrected here (physics wins)
----------------------------------------------------------------------
+----------------------------------------------------------------------
 - II.4 eq. 10 (text line ~1592): "(1 + 2ν)⁻¹" in the ∂²/∂b² coefficient is (1 − 2ν)⁻¹.
 - II.5 eqs. 10–11: the right-hand side "μ⁻¹ρ ∂²u/∂a²" is μ⁻¹ρ ∂²u/∂t² (as in eqs. 1, 2, 19, 20).
 - III.2.2: the shape functions are (1/16)(1 − ε)³(8 + 9ε + 3ε²), …, not 16(…) — only 1/16 gives
@@ -52,6 +52,7 @@ OCR and typesetting errors of the thesis corrected here (physics wins)
 - III.2.2: "[A]^e = [A]_e [T]" is read as the congruence T⁻ᵀ A_ε T⁻¹ — the thesis itself states
   the element matrices are symmetric, which the one-sided product would not be.
 - III.3.1.a eq. 1: "u + (1 − 2ν)⁻¹ div grad u" is Navier's Δu + (1 − 2ν)⁻¹ grad div u.
+
 The thesis's joint conditions (II.5 strains D1..D4 entering as the boundary terms C1..C4 of
 III.2.5) are not used: pins share translations (seed README), so the natural boundary terms
 vanish and joint forces enter through the end translation DOFs.
@@ -135,6 +136,22 @@ def lame_moduli(E, G_shear=None, nu=None):
     """(λ + 2μ, μ, ν) from E and the shear modulus G = μ (or Poisson's ratio ν), Pa.
 
     Raises ValueError unless −1 < ν < 1/2 (λ + 2μ = 2μ(1 − ν)/(1 − 2ν) finite and positive).
+
+    Parameters
+    ----------
+    E : array_like
+        Young's modulus, Pa.
+    G_shear : array_like, optional
+        Shear modulus G = μ, Pa (takes precedence over ``nu``).
+    nu : array_like, optional
+        Poisson's ratio ν (dimensionless), used when ``G_shear`` is not given.
+
+    Returns
+    -------
+    lam2mu, mu : numpy.ndarray
+        λ + 2μ and μ, Pa.
+    nu : numpy.ndarray
+        Poisson's ratio ν.
     """
     E = np.asarray(E, float)
     if G_shear is not None:
@@ -152,7 +169,22 @@ def lame_moduli(E, G_shear=None, nu=None):
 
 def wave_speeds(E, nu, rho):
     """Longitudinal and transverse wave speeds (c1, c2) = (√((λ + 2μ)/ρ), √(μ/ρ)), m/s
-    (thesis III.3.1.a). E in Pa, ρ in kg/m³; broadcasts."""
+    (thesis III.3.1.a). E in Pa, ρ in kg/m³; broadcasts.
+
+    Parameters
+    ----------
+    E : array_like
+        Young's modulus, Pa.
+    nu : array_like
+        Poisson's ratio ν (dimensionless).
+    rho : array_like
+        Density ρ, kg/m³.
+
+    Returns
+    -------
+    c1, c2 : numpy.ndarray
+        Longitudinal and transverse wave speeds, m/s.
+    """
     lam2mu, mu, _ = lame_moduli(E, nu=nu)
     rho = np.asarray(rho, float)
     return np.sqrt(lam2mu / rho), np.sqrt(mu / rho)
@@ -260,6 +292,13 @@ def link_matrices(length, n_elements: int, *, E, rho, area, second_moment=None, 
 
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators mapping the link DOFs q to fields at normalized stations ξ ∈ [0, 1].
+
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's seed–Lamé matrices (length, n_elements, n_dofs).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
 
     Returns
     -------

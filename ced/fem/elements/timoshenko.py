@@ -4,7 +4,7 @@ Element DOFs (u1, v1, θ1, u2, v2, θ2), θ the section rotation (counter-clockw
 shear is neglected). The transverse shape functions are the exact static solutions of the
 homogeneous Timoshenko equations EIθ'' + κGA(v' − θ) = 0, (v' − θ)' = 0, with
 φ = 12EI/(κGA h²) and μ = 1/(1 + φ) (Friedman & Kosmatka 1993, Comput. Struct. 47:473;
-Reddy 1997, Commun. Numer. Meth. Eng. 13:495):
+Reddy 1997, Commun. Numer. Meth. Eng. 13:495)::
 
     v = μ[1 − 3ξ² + 2ξ³ + φ(1 − ξ)] v1 + μh[ξ − 2ξ² + ξ³ + φ(ξ − ξ²)/2] θ1
       + μ[3ξ² − 2ξ³ + φξ] v2 + μh[ξ³ − ξ² − φ(ξ − ξ²)/2] θ2
@@ -110,6 +110,13 @@ def link_matrices(length, n_elements: int, *, E, G_shear, rho, area, second_mome
 
 def recovery_matrices(matrices: LinkMatrices, stations) -> dict:
     """Operators mapping the link DOFs q to fields at normalized stations ξ ∈ [0, 1].
+
+    Parameters
+    ----------
+    matrices : LinkMatrices
+        The link's Timoshenko matrices (length, n_elements).
+    stations : array_like
+        Normalized stations ξ ∈ [0, 1] along the link, shape (st,).
 
     Returns
     -------
