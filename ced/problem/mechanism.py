@@ -10,7 +10,8 @@ The family is named by the motion of the input link (the crank position) and the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,13 +52,17 @@ class Topology:
     ``links`` maps each link to its (first, second) joint: the link's x-axis runs from the first
     to the second. ``joints`` maps each joint to the (first, second) body it connects: the joint
     force is the force exerted on the second body by the first ("ground" and "slider" are
-    bodies without elastic model).
+    bodies without elastic model). ``points`` maps a joint at a point of a link other than its
+    two ends (a ternary link's third joint) to that link; ``sliders`` maps each slider block
+    (a body on a fixed straight guide) to its joint.
     """
 
     links: dict[str, tuple[str, str]]
     joints: dict[str, tuple[str, str]]
     ground_joints: tuple[str, ...]
     input_link: str = "crank"
+    points: dict[str, str] = field(default_factory=dict)
+    sliders: dict[str, str] = field(default_factory=dict)
 
     @property
     def link_names(self) -> list[str]:
@@ -83,6 +88,7 @@ _TOPOLOGIES = {
         links={"crank": ("A", "B"), "rod": ("B", "C")},
         joints={"A": ("ground", "crank"), "B": ("crank", "rod"), "C": ("rod", "slider")},
         ground_joints=("A",),
+        sliders={"slider": "C"},
     ),
     "single_link": Topology(
         links={"link": ("A", "B")},
@@ -93,13 +99,29 @@ _TOPOLOGIES = {
 }
 
 
-def topology(mechanism_type: str) -> Topology:
-    """Return the :class:`Topology` of ``four_bar``, ``slider_crank`` or ``single_link``.
+
+def _six_bar(kind: str) -> Topology:
+    from .linkage import PRESET_FIELDS, describe, linkage_topology
+
+    # The topology does not depend on the lengths: any values name the same links and joints.
+    dummy = {key: (default if default is not None else 1.0)
+             for key, (_, default) in PRESET_FIELDS[kind].items()}
+    return linkage_topology(describe({"type": kind, **dummy}))
+
+
+_SIX_BARS = {kind: _six_bar(kind) for kind in ("watt_ii", "stephenson_iii")}
+
+
+def topology(mechanism_type: str | Mapping) -> Topology:
+    """Return the :class:`Topology` of a mechanism type, or of a mechanism block.
 
     Parameters
     ----------
-    mechanism_type : str
-        ``four_bar``, ``slider_crank`` or ``single_link``.
+    mechanism_type : str or mapping
+        ``four_bar``, ``slider_crank``, ``single_link``, ``watt_ii`` or ``stephenson_iii``
+        (their topology is fixed by the type), or a normalized ``mechanism`` block (required
+        for ``type: linkage``, whose topology is its dyad list,
+        :func:`ced.problem.linkage.linkage_topology`).
 
     Returns
     -------
@@ -112,11 +134,23 @@ def topology(mechanism_type: str) -> Topology:
     >>> topology("four_bar").link_names
     ['crank', 'coupler', 'rocker']
     """
+    from .linkage import describe, linkage_topology
+
+    mech = mechanism_type if isinstance(mechanism_type, Mapping) else None
+    kind = mech["type"] if mech is not None else mechanism_type
+    if kind == "linkage":
+        if mech is None:
+            raise ValueError("mechanism.type: the topology of a linkage is its dyad list; pass "
+                             "the mechanism block")
+        return linkage_topology(describe(mech))
+    if kind in _SIX_BARS:
+        return _SIX_BARS[kind]
     try:
-        return _TOPOLOGIES[mechanism_type]
+        return _TOPOLOGIES[kind]
     except KeyError:
         raise ValueError(
-            f"mechanism.type: unknown type {mechanism_type!r}; allowed: {sorted(_TOPOLOGIES)}"
+            f"mechanism.type: unknown type {kind!r}; allowed: "
+            f"{sorted(_TOPOLOGIES) + sorted(_SIX_BARS) + ['linkage']}"
         ) from None
 
 
@@ -232,13 +266,20 @@ def input_limits(ground: float, crank: float, coupler: float, rocker: float) -> 
     return InputLimits(False, theta_min, theta_max)
 
 
-def assembly_error(mechanism: dict) -> str | None:
+def assembly_error(mechanism: dict, amplitude: float = 1.0) -> str | None:
     """Why a mechanism cannot be assembled, or None if it can.
+
+    A linkage of dyads (``watt_ii``, ``stephenson_iii``, ``linkage``) must assemble over the
+    whole motion of its input: a full turn, or for a six-bar whose first loop is a rocker-input
+    four-bar the oscillation θ_mid ± ``amplitude`` × half-range
+    (:func:`ced.problem.linkage.assembly_error`, sampled).
 
     Parameters
     ----------
     mechanism : dict
         Normalized ``mechanism`` block of a scene (``type`` and lengths in m).
+    amplitude : float
+        ``drive.amplitude``: the fraction of a rocker input's feasible half-range it sweeps.
 
     Returns
     -------
@@ -268,7 +309,28 @@ def assembly_error(mechanism: dict) -> str | None:
         return None
     if kind == "single_link":
         return None
+    if kind in ("watt_ii", "stephenson_iii", "linkage"):
+        return _linkage_assembly_error(mechanism, amplitude)
     return f"unknown mechanism type {kind!r}; allowed: {sorted(_TOPOLOGIES)}"
+
+
+def _linkage_assembly_error(mechanism: dict, amplitude: float) -> str | None:
+    from .linkage import ASSEMBLY_SAMPLES, assembly_error as dyads_error, describe
+
+    if mechanism["type"] == "linkage":
+        angles = np.linspace(0.0, 2.0 * math.pi, ASSEMBLY_SAMPLES)
+    else:
+        loop = {key: mechanism[key] for key in ("ground", "crank", "coupler", "rocker")}
+        message = assembly_error({"type": "four_bar", **loop})
+        if message:
+            return "first loop: " + message
+        limits = input_limits(*loop.values())
+        if limits.full_rotation:
+            angles = np.linspace(0.0, 2.0 * math.pi, ASSEMBLY_SAMPLES)
+        else:
+            half = amplitude * limits.half_range
+            angles = np.linspace(limits.mid - half, limits.mid + half, ASSEMBLY_SAMPLES)
+    return dyads_error(describe(mechanism), angles)
 
 
 #: |sin μ| (μ the coupler–rocker angle) below which the structure has lost its stiffness: the

@@ -157,6 +157,10 @@ def scene_rows() -> dict[str, list[list[str]]]:
 def _topologies() -> str:
     lines = []
     for kind in MECHANISM_TYPES:
+        if kind == "linkage":
+            lines.append("- `linkage`: the links and joints its description names (input "
+                         "link, dyads, points)")
+            continue
         topo = topology(kind)
         lines.append(f"- `{kind}`: links {', '.join(topo.link_names)}; joints "
                      f"{', '.join(topo.joint_names)}")

@@ -47,6 +47,7 @@ from typing import Any
 
 
 from .errors import Bool, Choice, Int, Real, SceneError, Text, check_keys, join, shown
+from .linkage import LINKAGE_FIELDS, PRESET_FIELDS, check_description
 from .materials import resolve_material, section_properties
 from .yaml_files import check_structure, load_yaml
 
@@ -71,7 +72,8 @@ DEFAULT_EFFECTS = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axi
 FORMULATIONS = ("euler_bernoulli", "timoshenko", "seed_lame", "plane_stress", "rigid")
 INTEGRATORS = ("newmark", "hht", "generalized_alpha", "houbolt")
 STARTS = ("undeformed", "quasi_static", "periodic")
-MECHANISM_TYPES = ("four_bar", "slider_crank", "single_link")
+MECHANISM_TYPES = ("four_bar", "slider_crank", "single_link", "watt_ii", "stephenson_iii",
+                   "linkage")
 AUTO = "auto"
 
 #: Top-level keys, in the order of the normalized scene.
@@ -85,6 +87,8 @@ BUILTIN_LINK = {"material": "steel",
 LINK_KEYS = ("material", "section", "flexible")
 
 MAX_TOTAL_STEPS = 10**9
+#: Mechanism types whose elastic model is not implemented: discretization.formulation rigid.
+RIGID_ONLY_TYPES = ("watt_ii", "stephenson_iii", "linkage")
 
 
 class _Required:
@@ -119,6 +123,13 @@ MECHANISM_FIELDS: dict[str, dict[str, tuple[Any, Any]]] = {
     "single_link": {
         "length": (_LENGTH, REQUIRED),
     },
+    **{kind: {key: (check, REQUIRED if default is None else default)
+              for key, (check, default) in fields.items()}
+       for kind, fields in PRESET_FIELDS.items()},
+    "linkage": {"ground": (LINKAGE_FIELDS["ground"], REQUIRED),
+                "input": (LINKAGE_FIELDS["input"], REQUIRED),
+                "points": (LINKAGE_FIELDS["points"], {}),
+                "dyads": (LINKAGE_FIELDS["dyads"], REQUIRED)},
 }
 
 BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
@@ -191,6 +202,36 @@ MEANINGS: dict[str, str] = {
     "mechanism.slider_crank.branch": "assembly branch of the rod (open or crossed)",
     "mechanism.single_link.length": "length of the one link, driven about a ground pivot with "
                                     "a free tip (for verification)",
+    **{f"mechanism.{kind}.{key}": meaning for kind in ("watt_ii", "stephenson_iii")
+       for key, meaning in {
+           "ground": "distance between the ground pivots A and D of the first four-bar",
+           "crank": "length of the input link A→B",
+           "coupler": "length of the first coupler B→C",
+           "rocker": "length of the first rocker D→C",
+           "branch": "assembly branch of the first loop: open puts C on the left of B→D",
+           "rocker_arm": "distance from the rocker's pivot D to its third joint E (the rocker "
+                         "is a ternary link)",
+           "rocker_arm_angle": "angle of D→E from D→C, counter-clockwise",
+           "coupler_arm": "distance from B to the coupler's third joint E (the coupler is a "
+                          "ternary link)",
+           "coupler_arm_angle": "angle of B→E from B→C, counter-clockwise",
+           "coupler2": "length of the second coupler E→F",
+           "rocker2": "length of the output rocker G→F",
+           "pivot2_x": "x of the output rocker's ground pivot G",
+           "pivot2_y": "y of the output rocker's ground pivot G",
+           "branch2": "assembly branch of the second dyad: open puts F on the left of E→G",
+       }.items() if key in MECHANISM_FIELDS[kind]},
+    "mechanism.linkage.ground": "the ground pivots by name, with their positions",
+    "mechanism.linkage.input": "the input link: its name, its ground pivot, the name of its tip "
+                               "joint and its length; it turns fully at the drive speed",
+    "mechanism.linkage.points": "third (fourth, …) joints of links, in the link's frame: x from "
+                                "its first joint towards its second, y to the left; a link "
+                                "with a point is a ternary link (rigid)",
+    "mechanism.linkage.dyads": "dyads placed in order, each attached to two known points (RRR: "
+                               "links [P→M, Q→M], joints [P, M, Q]) or to one point and a "
+                               "fixed guide (RRP: links [rod, slider], joints [P, M], guide "
+                               "{point, angle}); branch open puts M on the left of P→Q (RRR) "
+                               "or ahead of P along the guide (RRP)",
     "links.default": "properties every link inherits, key by key, unless the link overrides them",
     "links.<link>.material": "a library material name, or an inline {E, rho, nu[, "
                              "yield_strength, name, source]} mapping",
@@ -293,24 +334,29 @@ def _mechanism(value: Any) -> dict:
     fields = MECHANISM_FIELDS[kind]
     check_keys(value, "mechanism", ("type",) + tuple(fields))
     rest = {k: v for k, v in value.items() if k != "type"}
-    return {"type": kind, **_block(rest, "mechanism", fields)}
+    out = {"type": kind, **_block(rest, "mechanism", fields)}
+    if kind == "linkage":
+        check_description(out)
+    return out
 
 
-def _assembly(mechanism: dict) -> None:
+def _assembly(mechanism: dict, drive: dict) -> None:
     from .mechanism import assembly_error  # lazy: mechanism imports numpy
 
     try:
-        message = assembly_error(mechanism)
+        message = assembly_error(mechanism, drive["amplitude"])
     except (ArithmeticError, ValueError) as exc:
         message = f"cannot be assembled ({exc})"
     if message:
         raise SceneError("mechanism", message)
 
 
-def _links(value: Any, names: tuple[str, ...]) -> dict:
+def _links(value: Any, names: tuple[str, ...], ternary: frozenset = frozenset()) -> dict:
     """Merge built-in default, ``links.default`` and each named link; resolve and validate.
 
-    Each resolved value is validated at the path where it was written.
+    Each resolved value is validated at the path where it was written. A ternary link (one
+    with a point) is rigid: ``flexible: true`` written on it is refused, an inherited one is
+    ignored.
     """
     value = {} if value is None else value
     check_keys(value, "links", ("default",) + names, what="link")
@@ -331,6 +377,12 @@ def _links(value: Any, names: tuple[str, ...]) -> dict:
         material = resolve_material(*merged["material"])
         section = section_properties(merged["section"][0], material["nu"], merged["section"][1])
         flexible = Bool()(*merged["flexible"])
+        if key in ternary:
+            if flexible and merged["flexible"][1] == f"links.{key}.flexible":
+                raise SceneError(merged["flexible"][1], (
+                    f"the {key} is a ternary link (it carries a point), which ced models as "
+                    "a rigid body; flexible: true is allowed on binary links only"))
+            flexible = False
         if key != "default":
             out[key] = {"material": material, "section": section, "flexible": flexible}
     return out
@@ -389,10 +441,11 @@ def _normalize(raw: Any) -> dict:
     from .mechanism import topology
 
     mechanism = _mechanism(raw["mechanism"])
-    topo = topology(mechanism["type"])
+    topo = topology(mechanism)
 
     scene: dict[str, Any] = {"name": NAME_CHECK(raw.get("name", ""), "name"), "mechanism": mechanism}
-    scene["links"] = _links(raw.get("links"), tuple(topo.link_names))
+    scene["links"] = _links(raw.get("links"), tuple(topo.link_names),
+                            frozenset(topo.points.values()))
     scene["point_masses"] = _point_masses(raw.get("point_masses"), tuple(topo.joint_names))
     scene["drive"] = _block(raw.get("drive"), "drive", BLOCKS["drive"])
     scene["effects"] = _effects(raw["effects"]) if "effects" in raw else list(DEFAULT_EFFECTS)
@@ -414,8 +467,20 @@ def _normalize(raw: Any) -> dict:
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])
     scene["tolerance"] = TOLERANCE_CHECK(raw["tolerance"], "tolerance") if "tolerance" in raw \
         else DEFAULT_TOLERANCE
-    _assembly(mechanism)
+    _assembly(mechanism, scene["drive"])
+    _rigid_only(scene)
     return scene
+
+
+def _rigid_only(scene: dict) -> None:
+    """Linkages of dyads have a rigid analysis only, so far: say so instead of guessing."""
+    disc = scene["discretization"]
+    if scene["mechanism"]["type"] in RIGID_ONLY_TYPES and (
+            disc == AUTO or disc["formulation"] != "rigid"):
+        raise SceneError("discretization.formulation", (
+            f"a {scene['mechanism']['type']} mechanism has a rigid analysis only (motion, joint "
+            "forces, input torque); its elastic model is not implemented yet: set "
+            "discretization: {formulation: rigid}"))
 
 
 # ------------------------------------------------------------------------------- public

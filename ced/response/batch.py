@@ -11,11 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..problem.linkage import describe, four_bar_loops, ternary_bars
 from ..problem.mechanism import classify, input_limits, topology
-from ..rigid import kinematics
+from ..rigid import dyads, kinematics
 from ..rigid.inverse_dynamics import BodyProperties
 
-__all__ = ["Batch", "make_batch", "structure_key", "case_family", "step_count"]
+__all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families", "step_count"]
 
 
 def case_family(scene: dict) -> str:
@@ -32,9 +33,27 @@ def case_family(scene: dict) -> str:
         The family name.
     """
     mech = scene["mechanism"]
-    if mech["type"] == "four_bar":
+    if mech["type"] in ("four_bar", "watt_ii", "stephenson_iii"):
+        # A six-bar is named by its first loop, the one that decides how the input moves.
         return classify(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
     return mech["type"]
+
+
+def loop_families(scene: dict) -> list[str]:
+    """Grashof family of each four-bar loop of the scene's mechanism, first loop first.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene of type ``four_bar``, ``watt_ii`` or ``stephenson_iii``.
+
+    Returns
+    -------
+    list of str
+        :func:`ced.problem.mechanism.classify` of each loop
+        (:func:`ced.problem.linkage.four_bar_loops`).
+    """
+    return [classify(*loop) for loop in four_bar_loops(scene["mechanism"])]
 
 
 def step_count(scene: dict) -> int:
@@ -71,8 +90,12 @@ def structure_key(scene: dict) -> tuple:
     """
     n_steps = step_count(scene)
     disc = scene["discretization"]
+    mech = scene["mechanism"]
+    # Linkages of one type batch together only with the same dyad structure (names, kinds).
+    shape = (mech["type"] if mech["type"] != "linkage" else
+             repr(topology(mech)) + repr([d["kind"] for d in mech["dyads"]]))
     return (
-        scene["mechanism"]["type"],
+        shape,
         n_steps,
         scene["outputs"]["every"],
         scene["outputs"]["stations"],
@@ -107,11 +130,13 @@ class Batch:
 
     @property
     def topology(self):
-        return topology(self.mechanism_type)
+        return topology(self.scenes[0]["mechanism"])
 
     @property
     def link_lengths(self) -> np.ndarray:
-        """(case, link) m."""
+        """(case, link) m, from each link's first joint to its second."""
+        if self.mechanism_type not in _LENGTH_KEYS:
+            return np.stack([self.lengths[name] for name in self.topology.links], axis=1)
         single = self.mechanism_type == "single_link"
         return np.stack([self.lengths["length" if single else name]
                          for name in self.topology.links], axis=1)
@@ -135,7 +160,9 @@ class Batch:
                 L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch)
         if self.mechanism_type == "slider_crank":
             return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion, self.branch)
-        return kinematics.single_link(L["length"], motion)
+        if self.mechanism_type == "single_link":
+            return kinematics.single_link(L["length"], motion)
+        return dyads.linkage([describe(s["mechanism"]) for s in self.scenes], motion)
 
 
 _LENGTH_KEYS = {
@@ -145,11 +172,21 @@ _LENGTH_KEYS = {
 }
 
 
+def _link_length(description: dict, link: str) -> float:
+    """Distance from the link's first joint to its second in a dyad description, m."""
+    if description["input"]["link"] == link:
+        return description["input"]["length"]
+    for dyad in description["dyads"]:
+        if link in dyad["links"]:
+            return dyad["lengths"][dyad["links"].index(link)]
+    raise KeyError(link)
+
+
 def _drive(scene: dict, family: str) -> tuple[float, float]:
     """(initial angle, amplitude) of the input: rotation from θ0, or θ_mid + A sin(Ωt) with A a
     fraction of the feasible half-range for rocker-input families (docs/theory.md)."""
     drive, mech = scene["drive"], scene["mechanism"]
-    if mech["type"] != "four_bar":
+    if mech["type"] not in ("four_bar", "watt_ii", "stephenson_iii"):
         return drive["initial_angle"], math.nan
     limits = input_limits(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])
     if limits.full_rotation:
@@ -160,6 +197,8 @@ def _drive(scene: dict, family: str) -> tuple[float, float]:
 def _body_properties(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyProperties:
     """Link mass ρAL and centroidal inertia mL²/12 + ρL·I_section (the section term is the
     in-plane second moment, e.g. m h²/12 for a rectangle of in-plane height h)."""
+    if scenes[0]["mechanism"]["type"] not in _LENGTH_KEYS:
+        return _linkage_bodies(scenes, lengths)
     topo = topology(scenes[0]["mechanism"]["type"])
     mass = np.zeros((len(scenes), len(topo.links)))
     inertia = np.zeros_like(mass)
@@ -179,6 +218,40 @@ def _body_properties(scenes: list[dict], lengths: dict[str, np.ndarray]) -> Body
     return BodyProperties(mass, inertia, point, slider)
 
 
+def _linkage_bodies(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyProperties:
+    """Mass properties of the links of linkages of dyads: each link is its bars
+    (:func:`ced.problem.linkage.ternary_bars`), uniform rods of the link's section welded at
+    its first joint; each bar of length ℓ has mass ρAℓ, centroid at mid-bar and centroidal
+    inertia ρAℓ³/12 + ρℓ I_section; the link's sums by the parallel-axis theorem."""
+    topo = topology(scenes[0]["mechanism"])
+    ncase = len(scenes)
+    mass = np.zeros((ncase, len(topo.links)))
+    inertia = np.zeros_like(mass)
+    centre = np.zeros((ncase, len(topo.links), 2))
+    point = np.zeros((ncase, len(topo.joints)))
+    slider = np.zeros((ncase, len(topo.sliders)))
+    for c, scene in enumerate(scenes):
+        description = describe(scene["mechanism"])
+        for i, name in enumerate(topo.links):
+            link = scene["links"][name]
+            rho, area = link["material"]["rho"], link["section"]["area"]
+            ends = np.array(ternary_bars(description, name, lengths[name][c]))
+            bar = np.hypot(ends[:, 0], ends[:, 1])
+            m = rho * area * bar
+            mid = 0.5 * ends
+            mass[c, i] = m.sum()
+            centre[c, i] = m @ mid / mass[c, i]
+            offset = np.sum((mid - centre[c, i]) ** 2, axis=1)
+            own = m * bar**2 / 12.0 + rho * bar * link["section"]["second_moment"]
+            inertia[c, i] = np.sum(own + m * offset)
+        for k, joint in enumerate(topo.joints):
+            point[c, k] = scene["point_masses"].get(joint, 0.0)
+        masses = {d["links"][1]: d["slider_mass"] for d in description["dyads"]
+                  if d["kind"] == "RRP"}
+        slider[c] = [masses[name] for name in topo.sliders]
+    return BodyProperties(mass, inertia, point, slider, centre)
+
+
 def make_batch(scenes: list[dict]) -> Batch:
     """Collect the per-case parameters of structurally identical normalized scenes.
 
@@ -196,9 +269,13 @@ def make_batch(scenes: list[dict]) -> Batch:
     kind = scenes[0]["mechanism"]["type"]
     families = [case_family(s) for s in scenes]
     drives = [_drive(s, f) for s, f in zip(scenes, families)]
-    lengths = {
-        key: np.array([s["mechanism"][key] for s in scenes], float) for key in _LENGTH_KEYS[kind]
-    }
+    if kind in _LENGTH_KEYS:
+        lengths = {key: np.array([s["mechanism"][key] for s in scenes], float)
+                   for key in _LENGTH_KEYS[kind]}
+    else:  # a linkage of dyads: every link's length, first joint to second
+        descriptions = [describe(s["mechanism"]) for s in scenes]
+        lengths = {name: np.array([_link_length(d, name) for d in descriptions])
+                   for name in topology(scenes[0]["mechanism"]).links}
     speed = np.array([s["drive"]["speed"] for s in scenes], float)
     steps_per_revolution = np.array([s["time"]["steps_per_revolution"] for s in scenes], float)
     return Batch(

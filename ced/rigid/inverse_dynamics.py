@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .dyads import point_motion
 from .kinematics import RigidMotion
 
 __all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate"]
@@ -25,14 +26,17 @@ __all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_ene
 class BodyProperties:
     """Mass properties of the links of a batch, each (case, link), plus joint point masses.
 
-    ``mass`` kg, ``inertia`` kg m² about the centre of mass (taken at mid-length),
-    ``point_mass`` (case, joint) kg, ``slider_mass`` (case,) kg (slider-crank only).
+    ``mass`` kg, ``inertia`` kg m² about the centre of mass, ``point_mass`` (case, joint) kg,
+    ``slider_mass`` (case,) kg for one slider block or (case, slider) kg in the order of
+    ``Topology.sliders``. ``centre`` (case, link, 2) m is each centre of mass in its link's
+    frame (from the first joint, x towards the second); None puts it at mid-length.
     """
 
     mass: np.ndarray
     inertia: np.ndarray
     point_mass: np.ndarray
     slider_mass: np.ndarray
+    centre: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,25 @@ class InverseDynamics:
     joint_force: np.ndarray
     input_torque: np.ndarray
     guide_force: np.ndarray | None
+
+
+def _centre_motion(motion: RigidMotion, bodies: BodyProperties, i: int) -> tuple:
+    """Position, velocity and acceleration of link i's centre of mass, each (case, step, 2)."""
+    link = motion.topology.link_names[i]
+    if bodies.centre is None:
+        half = 0.5 * motion.lengths[:, i]
+        return tuple(motion.link_point(link, half, order) for order in range(3))
+    k = motion.topology.joint_names.index(motion.topology.links[link][0])
+    base = (motion.joint_position[:, :, k], motion.joint_velocity[:, :, k],
+            motion.joint_acceleration[:, :, k])
+    return point_motion(base, motion.link_angle[:, :, i], motion.link_angular_velocity[:, :, i],
+                        motion.link_angular_acceleration[:, :, i], bodies.centre[:, i])
+
+
+def _slider_masses(motion: RigidMotion, bodies: BodyProperties) -> np.ndarray:
+    """(case, slider) kg."""
+    mass = np.asarray(bodies.slider_mass, float)
+    return mass[:, None] if mass.ndim == 1 else mass
 
 
 def _carrier(motion: RigidMotion) -> dict[str, str]:
@@ -72,29 +95,28 @@ def inverse_dynamics(
     ncase, nstep = motion.time.shape
     g = np.broadcast_to(np.asarray(gravity, float), (ncase, 2))[:, None, :]
 
-    # Moving bodies with three equations each: the links, then the slider if any.
-    has_slider = "slider" in {b for pair in topo.joints.values() for b in pair}
-    body_names = links + (["slider"] if has_slider else [])
+    # Moving bodies with three equations each: the links, then the slider blocks.
+    sliders = list(topo.sliders)
+    body_names = links + sliders
     nb = len(body_names)
     joint_unknowns = [j for j in joints if topo.joints[j][1] != "tip"]
-    nunk = 2 * len(joint_unknowns) + 1 + (2 if has_slider else 0)
+    nunk = 2 * len(joint_unknowns) + 1 + 2 * len(sliders)
     assert nunk == 3 * nb, "mechanism is not statically determinate"
 
     # d'Alembert right-hand side per body: Σ F = m (a − g), Σ M_G = I α (+ point masses).
     rhs = np.zeros((ncase, nstep, nb, 3))
     centre = np.zeros((ncase, nstep, nb, 2))
     for i, link in enumerate(links):
-        L = motion.lengths[:, i][:, None]
-        centre[:, :, i] = motion.link_point(link, 0.5 * L[:, 0])
-        acc = motion.link_point(link, 0.5 * L[:, 0], order=2)
+        centre[:, :, i], _, acc = _centre_motion(motion, bodies, i)
         m = bodies.mass[:, i][:, None, None]
         rhs[:, :, i, :2] = m * (inertia * acc - g)
         rhs[:, :, i, 2] = (
             inertia * bodies.inertia[:, i][:, None] * motion.link_angular_acceleration[:, :, i])
-    if has_slider:
-        js = joints.index("C")
-        centre[:, :, nb - 1] = motion.joint_position[:, :, js]
-        rhs[:, :, nb - 1, :2] = bodies.slider_mass[:, None, None] * (
+    slider_mass = _slider_masses(motion, bodies)
+    for k, slider in enumerate(sliders):
+        i, js = len(links) + k, joints.index(topo.sliders[slider])
+        centre[:, :, i] = motion.joint_position[:, :, js]
+        rhs[:, :, i, :2] = slider_mass[:, k][:, None, None] * (
             inertia * motion.joint_acceleration[:, :, js] - g
         )
     carrier = _carrier(motion)
@@ -124,10 +146,15 @@ def inverse_dynamics(
             A[:, :, 3 * i + 2, 2 * u + 1] = sign * arm[..., 0]
     col = 2 * len(joint_unknowns)
     A[:, :, 3 * body_names.index(topo.input_link) + 2, col] = 1.0  # input torque
-    if has_slider:
-        i = nb - 1
-        A[:, :, 3 * i + 1, col + 1] = 1.0  # guide normal force (y)
-        A[:, :, 3 * i + 2, col + 2] = 1.0  # guide reaction moment
+    for k, slider in enumerate(sliders):
+        i, c = len(links) + k, col + 1 + 2 * k
+        if motion.guide_angle is not None:  # guide normal (−sin φ, cos φ)
+            phi = motion.guide_angle[slider][:, None]
+            A[:, :, 3 * i, c] = -np.sin(phi)
+            A[:, :, 3 * i + 1, c] = np.cos(phi)
+        else:
+            A[:, :, 3 * i + 1, c] = 1.0  # guide parallel to x: normal force along y
+        A[:, :, 3 * i + 2, c + 1] = 1.0  # guide reaction moment
     x = _solve_regular(A, rhs.reshape(ncase, nstep, 3 * nb), motion.singular)
 
     force = np.zeros((ncase, nstep, len(joints), 2))
@@ -136,7 +163,7 @@ def inverse_dynamics(
     return InverseDynamics(
         joint_force=force,
         input_torque=x[..., col],
-        guide_force=x[..., col + 1] if has_slider else None,
+        guide_force=x[..., col + 1] if sliders else None,
     )
 
 
@@ -194,9 +221,7 @@ def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.
     g = np.broadcast_to(np.asarray(gravity, float), (ncase, 2))[:, None, :]
     rate = np.zeros(motion.time.shape)
     for i, link in enumerate(topo.link_names):
-        half = 0.5 * motion.lengths[:, i]
-        v = motion.link_point(link, half, order=1)
-        a = motion.link_point(link, half, order=2)
+        _, v, a = _centre_motion(motion, bodies, i)
         rate += bodies.mass[:, i][:, None] * np.sum(v * (a - g), axis=-1)
         rate += (
             bodies.inertia[:, i][:, None]
@@ -206,8 +231,9 @@ def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.
     for k, _ in enumerate(topo.joint_names):
         v, a = motion.joint_velocity[:, :, k], motion.joint_acceleration[:, :, k]
         rate += bodies.point_mass[:, k][:, None] * np.sum(v * (a - g), axis=-1)
-    if "slider" in {b for pair in topo.joints.values() for b in pair}:
-        k = topo.joint_names.index("C")
+    slider_mass = _slider_masses(motion, bodies)
+    for s, slider in enumerate(topo.sliders):
+        k = topo.joint_names.index(topo.sliders[slider])
         v, a = motion.joint_velocity[:, :, k], motion.joint_acceleration[:, :, k]
-        rate += bodies.slider_mass[:, None] * np.sum(v * (a - g), axis=-1)
+        rate += slider_mass[:, s][:, None] * np.sum(v * (a - g), axis=-1)
     return rate

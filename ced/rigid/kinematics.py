@@ -68,6 +68,8 @@ class RigidMotion:
     (case, step, link); ``joint_position``, ``joint_velocity``, ``joint_acceleration`` of shape
     (case, step, joint, 2); ``lengths`` (case, link). ``singular`` (case, step) marks steps
     where the transmission is singular (change point, toggle) and velocities were interpolated.
+    ``guide_angle`` maps each slider block of a linkage of dyads to its guide's angle (case,)
+    rad; None for the built-in mechanisms (a slider-crank's guide is parallel to x).
     """
 
     topology: Topology
@@ -80,6 +82,7 @@ class RigidMotion:
     joint_velocity: np.ndarray
     joint_acceleration: np.ndarray
     singular: np.ndarray
+    guide_angle: dict[str, np.ndarray] | None = None
 
     def link_point(self, link: str, s: np.ndarray | float, order: int = 0) -> np.ndarray:
         """Position (order 0), velocity (1) or acceleration (2) of the point at distance
@@ -100,11 +103,13 @@ class RigidMotion:
         return base + s * (al[..., None] * n - (w**2)[..., None] * e)
 
 
-def _unit(angle: np.ndarray) -> np.ndarray:
+def unit(angle: np.ndarray) -> np.ndarray:
+    """(cos θ, sin θ) on a new last axis."""
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
-def _perp(angle: np.ndarray) -> np.ndarray:
+def perp(angle: np.ndarray) -> np.ndarray:
+    """(−sin θ, cos θ), the unit vector a quarter turn ahead, on a new last axis."""
     return np.stack([-np.sin(angle), np.cos(angle)], axis=-1)
 
 
@@ -112,7 +117,7 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
 
-def _track_branch(
+def track_branch(
     candidates: np.ndarray, start_index: np.ndarray, touching: np.ndarray
 ) -> np.ndarray:
     """Pick, step by step, the candidate angle that continues the motion smoothly.
@@ -145,7 +150,7 @@ def _track_branch(
     return np.take_along_axis(candidates, choice[None], axis=0)[0]
 
 
-def _fill_singular(values: np.ndarray, singular: np.ndarray) -> np.ndarray:
+def fill_singular(values: np.ndarray, singular: np.ndarray) -> np.ndarray:
     """Replace values at singular steps by linear interpolation in step index (per case)."""
     if not singular.any():
         return values
@@ -180,7 +185,7 @@ def four_bar(
     th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
     ncase, nstep = th2.shape
     A = np.zeros((ncase, nstep, 2))
-    B = a[..., None] * _unit(th2)
+    B = a[..., None] * unit(th2)
     D = np.zeros_like(B)
     D[..., 0] = g
     BD = D - B
@@ -194,8 +199,8 @@ def four_bar(
     ordered = np.sort(np.concatenate([g, a, b, c], axis=1), axis=1)
     s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
     touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
-    th3 = np.unwrap(_track_branch(candidates, start, touching), axis=1)
-    C = B + b[..., None] * _unit(th3)
+    th3 = np.unwrap(track_branch(candidates, start, touching), axis=1)
+    C = B + b[..., None] * unit(th3)
     th4 = np.unwrap(np.arctan2(C[..., 1] - D[..., 1], C[..., 0] - D[..., 0]), axis=1)
 
     # Velocities: a ω2 e⊥2 + b ω3 e⊥3 = c ω4 e⊥4, dotted with e4 and e3 (e⊥i·ej = sin(θj − θi)).
@@ -204,22 +209,22 @@ def four_bar(
     safe = np.where(singular, 1.0, s34)
     w3 = a * w2 * np.sin(th4 - th2) / (b * safe)
     w4 = a * w2 * np.sin(th3 - th2) / (c * safe)
-    w3, w4 = _fill_singular(w3, singular), _fill_singular(w4, singular)
+    w3, w4 = fill_singular(w3, singular), fill_singular(w4, singular)
     # Accelerations: b α3 e⊥3 − c α4 e⊥4 = −R with the known part R below.
     R = (
-        a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
-        - b[..., None] * (w3**2)[..., None] * _unit(th3)
-        + c[..., None] * (w4**2)[..., None] * _unit(th4)
+        a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
+        - b[..., None] * (w3**2)[..., None] * unit(th3)
+        + c[..., None] * (w4**2)[..., None] * unit(th4)
     )
-    al3 = np.sum(R * _unit(th4), axis=-1) / (b * safe)
-    al4 = np.sum(R * _unit(th3), axis=-1) / (c * safe)
-    al3, al4 = _fill_singular(al3, singular), _fill_singular(al4, singular)
+    al3 = np.sum(R * unit(th4), axis=-1) / (b * safe)
+    al4 = np.sum(R * unit(th3), axis=-1) / (c * safe)
+    al3, al4 = fill_singular(al3, singular), fill_singular(al4, singular)
 
     vA = np.zeros_like(B)
-    vB = a[..., None] * w2[..., None] * _perp(th2)
-    vC = c[..., None] * w4[..., None] * _perp(th4)
-    aB = a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
-    aC = c[..., None] * (al4[..., None] * _perp(th4) - (w4**2)[..., None] * _unit(th4))
+    vB = a[..., None] * w2[..., None] * perp(th2)
+    vC = c[..., None] * w4[..., None] * perp(th4)
+    aB = a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
+    aC = c[..., None] * (al4[..., None] * perp(th4) - (w4**2)[..., None] * unit(th4))
     return RigidMotion(
         topology=topology("four_bar"),
         time=motion.time,
@@ -271,12 +276,12 @@ def slider_crank(
     w3 = -a * w2 * np.cos(th2) / (b * cos3)
     al3 = (a * w2**2 * np.sin(th2) - a * al2 * np.cos(th2) + b * w3**2 * sin3) / (b * cos3)
     A = np.zeros(th2.shape + (2,))
-    B = a[..., None] * _unit(th2)
-    C = B + b[..., None] * _unit(th3)
-    vB = a[..., None] * w2[..., None] * _perp(th2)
-    aB = a[..., None] * (al2[..., None] * _perp(th2) - (w2**2)[..., None] * _unit(th2))
-    vC = vB + b[..., None] * w3[..., None] * _perp(th3)
-    aC = aB + b[..., None] * (al3[..., None] * _perp(th3) - (w3**2)[..., None] * _unit(th3))
+    B = a[..., None] * unit(th2)
+    C = B + b[..., None] * unit(th3)
+    vB = a[..., None] * w2[..., None] * perp(th2)
+    aB = a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
+    vC = vB + b[..., None] * w3[..., None] * perp(th3)
+    aC = aB + b[..., None] * (al3[..., None] * perp(th3) - (w3**2)[..., None] * unit(th3))
     return RigidMotion(
         topology=topology("slider_crank"),
         time=motion.time,
@@ -309,9 +314,9 @@ def single_link(length: np.ndarray, motion: InputMotion) -> RigidMotion:
     L = np.asarray(length, float)[:, None, None]
     th, w, al = motion.angle, motion.velocity, motion.acceleration
     A = np.zeros(th.shape + (2,))
-    B = L * _unit(th)
-    vB = L * w[..., None] * _perp(th)
-    aB = L * (al[..., None] * _perp(th) - (w**2)[..., None] * _unit(th))
+    B = L * unit(th)
+    vB = L * w[..., None] * perp(th)
+    aB = L * (al[..., None] * perp(th) - (w**2)[..., None] * unit(th))
     return RigidMotion(
         topology=topology("single_link"),
         time=motion.time,

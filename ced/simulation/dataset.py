@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
+from ..problem.linkage import PRESET_FIELDS
 from ..problem.mechanism import topology
 from ..problem.status import STATUS_ADVICE, STATUS_DTYPE, STATUS_FLAGS, STATUS_MEANINGS
 from ..response.batch import Batch
@@ -138,10 +139,18 @@ CASE_COORDINATES: dict[str, tuple[str, str, str]] = {
     "scene_name": ("", "scene name", "always"),
     "speed": ("rad s-1", "input speed", "always"),
     "material": ("", "material of the first flexible link (of the crank if none is)", "always"),
-    "ground": ("m", "ground length", "four-bar"),
-    "crank": ("m", "crank length", "four-bar, slider-crank"),
-    "coupler": ("m", "coupler length", "four-bar"),
-    "rocker": ("m", "rocker length", "four-bar"),
+    "ground": ("m", "ground length", "four-bar, six-bars"),
+    "crank": ("m", "crank length", "four-bar, slider-crank, six-bars"),
+    "coupler": ("m", "coupler length", "four-bar, six-bars"),
+    "rocker": ("m", "rocker length", "four-bar, six-bars"),
+    "rocker_arm": ("m", "rocker arm length D→E", "watt_ii"),
+    "rocker_arm_angle": ("rad", "rocker arm angle from D→C", "watt_ii"),
+    "coupler_arm": ("m", "coupler arm length B→E", "stephenson_iii"),
+    "coupler_arm_angle": ("rad", "coupler arm angle from B→C", "stephenson_iii"),
+    "coupler2": ("m", "second coupler length", "six-bars"),
+    "rocker2": ("m", "output rocker length", "six-bars"),
+    "pivot2_x": ("m", "x of the output rocker's ground pivot", "six-bars"),
+    "pivot2_y": ("m", "y of the output rocker's ground pivot", "six-bars"),
     "rod": ("m", "rod length", "slider-crank"),
     "offset": ("m", "guide offset", "slider-crank"),
     "slider_mass": ("kg", "slider mass", "slider-crank"),
@@ -259,7 +268,7 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     speeds = np.concatenate([b.speed for b in batches])
     families = [f for b in batches for f in b.families]
     kind = scenes[0]["mechanism"]["type"]
-    topo = topology(kind)
+    topo = topology(scenes[0]["mechanism"])
     # The material and section of the first flexible link describe the case (all links if rigid).
     link = next((n for n in topo.links if scenes[0]["links"][n]["flexible"]), topo.link_names[0])
     coords = {
@@ -274,8 +283,8 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     }
     for key in {"four_bar": ("ground", "crank", "coupler", "rocker"),
                 "slider_crank": ("crank", "rod", "offset", "slider_mass"),
-                "single_link": ("length",)}[kind]:
-        units = "kg" if key == "slider_mass" else "m"
+                "single_link": ("length",)}.get(kind, _six_bar_keys(scenes[0]["mechanism"])):
+        units = "kg" if key == "slider_mass" else "rad" if key.endswith("angle") else "m"
         coords[key] = ("case", np.array([s["mechanism"][key] for s in scenes], float),
                        {"units": units, "long_name": f"{key.replace('_', ' ')}"})
     section = scenes[0]["links"][link]["section"]
@@ -285,6 +294,12 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
                 "case", np.array([s["links"][link]["section"][key] for s in scenes], float),
                 {"units": "m", "long_name": f"section {key} of the {link}"})
     return {k: (v[0], v[1][order], v[2]) for k, v in coords.items()}
+
+
+def _six_bar_keys(mechanism: dict) -> tuple[str, ...]:
+    """The scalar lengths and angles of a six-bar preset (none for a general linkage)."""
+    fields = PRESET_FIELDS.get(mechanism["type"], {})
+    return tuple(k for k in fields if isinstance(mechanism[k], float))
 
 
 def dataset_reference() -> str:

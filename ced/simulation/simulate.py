@@ -356,7 +356,7 @@ def simulate(scenes) -> xr.Dataset:
         data["effects_auto"] = np.array(auto_reports, dtype=object)
 
     first = normalized[0]
-    topo = topology(first["mechanism"]["type"])
+    topo = topology(first["mechanism"])
     coords = {
         "case": ("case", np.arange(len(normalized)), {"units": "1", "long_name": "case index"}),
         "step": ("step", np.arange(next(iter(n_out))) * first["outputs"]["every"],

@@ -50,13 +50,13 @@ def case_bytes(scene: dict, itemsize: int = 4) -> int:
     itemsize : int
         Bytes per value of the station fields.
     """
-    topo = topology(scene["mechanism"]["type"])
+    topo = topology(scene["mechanism"])
     steps = step_count(scene) // scene["outputs"]["every"] + 1
     links, joints = len(topo.link_names), len(topo.joint_names)
     stations = scene["outputs"]["stations"]
     disc = scene["discretization"]
     elastic = disc == "auto" or disc["formulation"] != "rigid"
-    guide = scene["mechanism"]["type"] == "slider_crank"
+    guide = bool(topo.sliders)
     modal = scene.get("modal") or {"angles": 0, "modes": 0}
     total = 8 * steps * (3 + guide + 3 * links + 4 * joints) + 8 * 3 + 161
     if elastic:

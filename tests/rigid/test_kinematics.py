@@ -4,14 +4,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ced.rigid import kinematics as kin
-from tests.conftest import drive_of, four_bars
+from tests.conftest import FD8, check_derivatives, drive_of, four_bars
 
-# 8th-order central difference weights for the first derivative (offsets −4..4).
+
 def _cross(u, v):
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-
-
-FD8 = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
 
 
 def _four_bar_at(times, g, a, b, c, branch, speed=7.0):
@@ -50,18 +47,7 @@ def test_four_bar_derivatives_match_finite_differences(linkage, phase):
     dt = 1e-4 / speed
     times = (t0 + dt * np.arange(-4, 5))[None]
     r = _four_bar_at(times, g, a, b, c, branch, speed)
-    for value, derivative in (
-        (np.unwrap(r.link_angle[0], axis=0), r.link_angular_velocity[0, 4]),
-        (r.link_angular_velocity[0], r.link_angular_acceleration[0, 4]),
-        (r.joint_position[0], r.joint_velocity[0, 4]),
-        (r.joint_velocity[0], r.joint_acceleration[0, 4]),
-    ):
-        fd = np.tensordot(FD8, value, axes=(0, 0)) / dt
-        # Where the derivative vanishes (a dwell), the difference quotient is round-off only:
-        # |value| × speed, the derivative's natural size, keeps the relative check meaningful.
-        natural = np.abs(value).max() * speed
-        scale = np.abs(derivative).max() + np.abs(fd).max() + natural
-        assert np.abs(fd - derivative).max() < 1e-6 * scale
+    check_derivatives(r, dt, speed, 1e-6)
 
 
 @given(four_bars())

@@ -1,0 +1,504 @@
+"""Linkages built from dyads: the description, its checks, its topology and the presets.
+
+A planar linkage of one degree of freedom is an *input link* turning about a ground pivot
+plus an ordered list of *dyads*, two bodies and three joints each, whose closed-form position
+follows from two already known points (Assur groups of class II; the planar building block of
+every closed-form kinematics, docs/theory.md "Linkages built from dyads"):
+
+* ``RRR`` — links ``[l1, l2]``, joints ``[P, M, Q]``: l1 runs from the known point P to the new
+  joint M, l2 from the known point Q to M; ``branch: open`` puts M on the left of P→Q.
+* ``RRP`` — link ``l1`` from the known point P to the new joint M, and a slider block at M on a
+  fixed straight guide through ``guide.point`` at ``guide.angle``; ``branch: open`` puts M
+  ahead of P along the guide direction.
+
+Known points are the ground pivots, the input link's tip and the *points* of links already
+placed (a point of a link in its frame: x from its first joint towards its second, y to the
+left; a link with a point is a ternary link). Each known point takes exactly one joint: a
+point left unused, a joint attached to nothing and a link used twice are refused, naming the
+key. ``four_bar``, ``slider_crank``, ``watt_ii`` and ``stephenson_iii`` are presets: their few
+lengths expand into this description (:func:`describe`).
+
+A ternary link is modelled as bars of the link's section welded at its first joint: the bar
+to its second joint and one bar to each point off that bar (its mass, centre of mass and
+inertia follow, :func:`ternary_bars`).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
+
+__all__ = ["DYAD_KINDS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
+           "check_description", "linkage_topology", "ternary_bars", "four_bar_loops",
+           "assembly_error", "ASSEMBLY_SAMPLES"]
+
+DYAD_KINDS = ("RRR", "RRP")
+#: Mechanism types that expand into a dyad description (single_link is not a linkage).
+PRESET_TYPES = ("four_bar", "slider_crank", "watt_ii", "stephenson_iii")
+
+_LENGTH = Real(low=0.0, low_open=True, unit="m")
+_COORD = Real(unit="m")
+_ANGLE = Real(unit="rad")
+_NAME = Text(nonempty=True)
+_BRANCH = Choice(("open", "crossed"))
+_RESERVED = ("ground", "tip")
+
+
+def _pair(value: Any, path: str, check=_COORD) -> list[float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError(path, f"must be a list [x, y] of two finite numbers (m); got "
+                               f"{shown(value)}")
+    return [check(v, f"{path}[{i}]") for i, v in enumerate(value)]
+
+
+def _names(value: Any, path: str, n: int, what: str) -> list[str]:
+    if not isinstance(value, (list, tuple)) or len(value) != n:
+        raise SceneError(path, f"must be a list of {n} {what} names; got {shown(value)}")
+    return [_NAME(v, f"{path}[{i}]") for i, v in enumerate(value)]
+
+
+class _Ground:
+    def describe(self) -> str:
+        return "a mapping {pivot name: [x, y]} of the ground pivots (m)"
+
+    def __call__(self, value: Any, path: str) -> dict:
+        if not isinstance(value, Mapping) or not value:
+            raise SceneError(path, f"must be {self.describe()}; got {shown(value)}")
+        return {_NAME(k, path): _pair(v, f"{path}.{k}") for k, v in value.items()}
+
+
+class _Input:
+    fields = {"link": _NAME, "pivot": _NAME, "tip": _NAME, "length": _LENGTH}
+
+    def describe(self) -> str:
+        return "a mapping {link, pivot, tip, length}: the input link turns about a ground pivot"
+
+    def __call__(self, value: Any, path: str) -> dict:
+        check_keys(value, path, tuple(self.fields))
+        out = {}
+        for key, check in self.fields.items():
+            if key not in value:
+                raise SceneError(f"{path}.{key}", f"missing; required: {check.describe()}")
+            out[key] = check(value[key], f"{path}.{key}")
+        return out
+
+
+class _Points:
+    def describe(self) -> str:
+        return "a mapping {point name: {link, at: [x, y]}}, x along the link from its first joint"
+
+    def __call__(self, value: Any, path: str) -> dict:
+        value = {} if value is None else value
+        if not isinstance(value, Mapping):
+            raise SceneError(path, f"must be {self.describe()}; got {shown(value)}")
+        out = {}
+        for name, entry in value.items():
+            sub = f"{path}.{name}"
+            check_keys(entry, sub, ("link", "at"))
+            for key in ("link", "at"):
+                if key not in entry:
+                    raise SceneError(f"{sub}.{key}", "missing; a point needs its link and its "
+                                                     "coordinates at: [x, y] in the link frame")
+            out[_NAME(name, path)] = {"link": _NAME(entry["link"], f"{sub}.link"),
+                                      "at": _pair(entry["at"], f"{sub}.at")}
+        return out
+
+
+class _Dyads:
+    def describe(self) -> str:
+        return (f"a non-empty list of dyads {{kind ({join(DYAD_KINDS)}), links, joints, "
+                "lengths, branch[, guide, slider_mass]}")
+
+    def __call__(self, value: Any, path: str) -> list:
+        if not isinstance(value, (list, tuple)) or not value:
+            raise SceneError(path, f"must be {self.describe()}; got {shown(value)}")
+        return [self._dyad(d, f"{path}[{i}]") for i, d in enumerate(value)]
+
+    @staticmethod
+    def _dyad(value: Any, path: str) -> dict:
+        if not isinstance(value, Mapping) or "kind" not in value:
+            raise SceneError(path, f"must be a mapping with kind ({join(DYAD_KINDS)}); got "
+                                   f"{shown(value)}")
+        kind = Choice(DYAD_KINDS)(value["kind"], f"{path}.kind")
+        rrr = kind == "RRR"
+        keys = ("kind", "links", "joints", "lengths", "branch") + (
+            () if rrr else ("guide", "slider_mass"))
+        check_keys(value, path, keys)
+        for key in ("links", "joints", "lengths") + (() if rrr else ("guide",)):
+            if key not in value:
+                raise SceneError(f"{path}.{key}", f"missing; a {kind} dyad needs "
+                                                  f"{join(k for k in keys if k != 'kind')}")
+        out = {"kind": kind,
+               "links": _names(value["links"], f"{path}.links", 2, "body"),
+               "joints": _names(value["joints"], f"{path}.joints", 3 if rrr else 2, "joint")}
+        n = 2 if rrr else 1
+        lengths = value["lengths"]
+        if not isinstance(lengths, (list, tuple)) or len(lengths) != n:
+            raise SceneError(f"{path}.lengths", f"must be a list of {n} link lengths (m); got "
+                                                f"{shown(lengths)}")
+        out["lengths"] = [_LENGTH(v, f"{path}.lengths[{i}]") for i, v in enumerate(lengths)]
+        out["branch"] = _BRANCH(value.get("branch", "open"), f"{path}.branch")
+        if not rrr:
+            guide = check_keys(value["guide"], f"{path}.guide", ("point", "angle"))
+            out["guide"] = {"point": _pair(guide.get("point", [0.0, 0.0]), f"{path}.guide.point"),
+                            "angle": _ANGLE(guide.get("angle", 0.0), f"{path}.guide.angle")}
+            out["slider_mass"] = Real(low=0.0, unit="kg")(value.get("slider_mass", 0.0),
+                                                          f"{path}.slider_mass")
+        return out
+
+
+#: Keys of ``mechanism`` for ``type: linkage``: (check, required).
+LINKAGE_FIELDS = {"ground": _Ground(), "input": _Input(), "points": _Points(), "dyads": _Dyads()}
+
+
+def check_description(mech: dict, path: str = "mechanism") -> None:
+    """Refuse a dyad description whose names do not make one linkage.
+
+    Every dyad attaches to known points only (ground pivots, the input's tip, points of links
+    placed before it), each known point takes one joint, every point is used, and every name
+    (link, slider, joint) is used once.
+
+    Parameters
+    ----------
+    mech : dict
+        A ``type: linkage`` mechanism block, structurally checked (:data:`LINKAGE_FIELDS`).
+    path : str
+        Key path of the block in messages.
+
+    Raises
+    ------
+    SceneError
+        Naming the key of the first inconsistency.
+    """
+    inp = mech["input"]
+    bodies: dict[str, str] = {}  # body name -> key that introduced it
+
+    def new_body(name: str, where: str) -> None:
+        if name in _RESERVED:
+            raise SceneError(where, f"{name!r} is reserved; choose another link name")
+        if name in bodies:
+            raise SceneError(where, f"link {name!r} is used twice (first at {bodies[name]}); "
+                                    "every link belongs to exactly one dyad or is the input")
+        bodies[name] = where
+
+    new_body(inp["link"], f"{path}.input.link")
+    if inp["pivot"] not in mech["ground"]:
+        raise SceneError(f"{path}.input.pivot", f"{inp['pivot']!r} is not a ground pivot; "
+                                                f"allowed: {join(mech['ground'])}")
+    # Known points waiting for a joint: name -> key where they were defined.
+    free = {name: f"{path}.ground.{name}" for name in mech["ground"] if name != inp["pivot"]}
+    joints = {inp["pivot"]: f"{path}.input.pivot"}
+    if inp["tip"] in free or inp["tip"] in joints:
+        raise SceneError(f"{path}.input.tip", f"joint name {inp['tip']!r} is already used")
+    free[inp["tip"]] = f"{path}.input.tip"
+    points = dict(mech.get("points", {}))
+
+    def release_points(link: str) -> None:
+        for name, point in list(points.items()):
+            if point["link"] == link:
+                if name in free or name in joints:
+                    raise SceneError(f"{path}.points.{name}", f"joint name {name!r} is "
+                                                              "already used")
+                free[name] = f"{path}.points.{name}"
+                del points[name]
+
+    release_points(inp["link"])
+    for i, dyad in enumerate(mech["dyads"]):
+        sub = f"{path}.dyads[{i}]"
+        rrr = dyad["kind"] == "RRR"
+        attached = [0, 2] if rrr else [0]
+        for k in attached:
+            name = dyad["joints"][k]
+            if name not in free:
+                why = ("already carries a joint" if name in joints else
+                       "is attached to nothing: not a ground pivot, the input's tip or a point "
+                       "of a link placed before this dyad")
+                raise SceneError(f"{sub}.joints[{k}]", f"{name!r} {why}; known free points: "
+                                                       f"{join(sorted(free)) or 'none'}")
+            joints[name] = f"{sub}.joints[{k}]"
+            del free[name]
+        middle = dyad["joints"][1]
+        if middle in joints or middle in free or middle in points:
+            raise SceneError(f"{sub}.joints[1]", f"joint name {middle!r} is already used; the "
+                                                 "middle joint of a dyad is a new joint")
+        joints[middle] = f"{sub}.joints[1]"
+        for k, link in enumerate(dyad["links"]):
+            new_body(link, f"{sub}.links[{k}]")
+        if rrr:
+            release_points(dyad["links"][0])
+            release_points(dyad["links"][1])
+        else:
+            release_points(dyad["links"][0])
+            for name, point in points.items():
+                if point["link"] == dyad["links"][1]:
+                    raise SceneError(f"{path}.points.{name}", "a slider block carries no "
+                                                              "points; put it on a link")
+    for name, point in points.items():
+        if point["link"] not in bodies:
+            raise SceneError(f"{path}.points.{name}.link", f"unknown link {point['link']!r}; "
+                                                           f"allowed: {join(bodies)}")
+    if free:
+        name = sorted(free)[0]
+        raise SceneError(free[name], f"{name!r} is attached to nothing: no dyad uses it; "
+                                     "remove it or attach a dyad there")
+
+
+def _rocker_point(arm: float, angle: float) -> list[float]:
+    return [arm * math.cos(angle), arm * math.sin(angle)]
+
+
+def describe(mech: Mapping) -> dict:
+    """The dyad description of a normalized mechanism block (presets expanded).
+
+    Parameters
+    ----------
+    mech : mapping
+        Normalized ``mechanism`` block of type ``linkage`` or a preset (:data:`PRESET_TYPES`);
+        lengths in m, angles in rad.
+
+    Returns
+    -------
+    dict
+        ``{type: linkage, ground, input, points, dyads}`` (see the module docstring).
+
+    Examples
+    --------
+    >>> d = describe({"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+    ...               "rocker": 0.35, "branch": "open"})
+    >>> d["dyads"][0]["links"], d["dyads"][0]["joints"]
+    (['coupler', 'rocker'], ['B', 'C', 'D'])
+    """
+    kind = mech["type"]
+    if kind == "linkage":
+        return {"type": "linkage", "ground": dict(mech["ground"]), "input": dict(mech["input"]),
+                "points": dict(mech.get("points", {})), "dyads": list(mech["dyads"])}
+    if kind not in PRESET_TYPES:
+        raise ValueError(f"mechanism.type: {kind!r} is not a linkage of dyads; allowed: "
+                         f"{join(PRESET_TYPES + ('linkage',))}")
+    crank = {"link": "crank", "pivot": "A", "tip": "B", "length": mech["crank"]}
+    if kind == "slider_crank":
+        return {"type": "linkage", "ground": {"A": [0.0, 0.0]}, "input": crank, "points": {},
+                "dyads": [{"kind": "RRP", "links": ["rod", "slider"], "joints": ["B", "C"],
+                           "lengths": [mech["rod"]], "branch": mech["branch"],
+                           "guide": {"point": [0.0, mech["offset"]], "angle": 0.0},
+                           "slider_mass": mech["slider_mass"]}]}
+    first = {"kind": "RRR", "links": ["coupler", "rocker"], "joints": ["B", "C", "D"],
+             "lengths": [mech["coupler"], mech["rocker"]], "branch": mech["branch"]}
+    out = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [mech["ground"], 0.0]},
+           "input": crank, "points": {}, "dyads": [first]}
+    if kind == "four_bar":
+        return out
+    out["ground"]["G"] = [mech["pivot2_x"], mech["pivot2_y"]]
+    host, arm = ("rocker", "rocker_arm") if kind == "watt_ii" else ("coupler", "coupler_arm")
+    out["points"] = {"E": {"link": host, "at": _rocker_point(mech[arm], mech[f"{arm}_angle"])}}
+    out["dyads"].append({"kind": "RRR", "links": ["coupler2", "rocker2"],
+                         "joints": ["E", "F", "G"],
+                         "lengths": [mech["coupler2"], mech["rocker2"]],
+                         "branch": mech["branch2"]})
+    return out
+
+
+_FIRST_LOOP = {
+    "ground": (_LENGTH, None), "crank": (_LENGTH, None), "coupler": (_LENGTH, None),
+    "rocker": (_LENGTH, None), "branch": (_BRANCH, "open"),
+}
+_SECOND_LOOP = {
+    "coupler2": (_LENGTH, None), "rocker2": (_LENGTH, None),
+    "pivot2_x": (_COORD, None), "pivot2_y": (_COORD, None), "branch2": (_BRANCH, "open"),
+}
+#: Scalar keys of the six-bar presets: key -> (check, default or None for required).
+PRESET_FIELDS = {
+    "watt_ii": {**_FIRST_LOOP, "rocker_arm": (_LENGTH, None),
+                "rocker_arm_angle": (_ANGLE, 0.0), **_SECOND_LOOP},
+    "stephenson_iii": {**_FIRST_LOOP, "coupler_arm": (_LENGTH, None),
+                       "coupler_arm_angle": (_ANGLE, 0.0), **_SECOND_LOOP},
+}
+
+
+def linkage_topology(description: Mapping):
+    """The :class:`ced.problem.mechanism.Topology` of a dyad description.
+
+    Links are listed input first, then each dyad's links in order (a slider block is a body,
+    not a link); joints in the order they are met (input pivot, input tip, then each dyad's
+    joints). A joint connects the body that owns the known point (first) to the dyad's link.
+
+    Parameters
+    ----------
+    description : mapping
+        A dyad description (:func:`describe`).
+
+    Returns
+    -------
+    Topology
+        With ``points`` (joint at a point of a link -> that link) and ``sliders`` (slider
+        block -> its joint, on a fixed guide).
+    """
+    from .mechanism import Topology  # mechanism imports numpy; keep this module light
+
+    inp = description["input"]
+    links = {inp["link"]: (inp["pivot"], inp["tip"])}
+    owner = {inp["tip"]: inp["link"], **{g: "ground" for g in description["ground"]}}
+    owner.update({name: p["link"] for name, p in description.get("points", {}).items()})
+    joints = {inp["pivot"]: ("ground", inp["link"])}
+    sliders = {}
+    for dyad in description["dyads"]:
+        l1, l2 = dyad["links"]
+        P, M = dyad["joints"][:2]
+        links[l1] = (P, M)
+        joints[P] = (owner[P], l1)
+        if dyad["kind"] == "RRR":
+            Q = dyad["joints"][2]
+            links[l2] = (Q, M)
+            joints[M] = (l1, l2)
+            joints[Q] = (owner[Q], l2)
+        else:
+            joints[M] = (l1, l2)
+            sliders[l2] = M
+    points = {name: p["link"] for name, p in description.get("points", {}).items()}
+    ground = tuple(j for j, (first, _) in joints.items() if first == "ground")
+    return Topology(links=links, joints=joints, ground_joints=ground, input_link=inp["link"],
+                    points=points, sliders=sliders)
+
+
+def ternary_bars(description: Mapping, link: str, length: float) -> list[tuple[float, float]]:
+    """End points (x, y) in the link frame of the bars that make up ``link``, m.
+
+    Every bar starts at the link's first joint: one to its second joint (``(length, 0)``),
+    and one to each of its points that does not lie on that bar (a point on the bar is a pin
+    through it and adds no material).
+
+    Parameters
+    ----------
+    description : mapping
+        A dyad description (:func:`describe`).
+    link : str
+        The link's name.
+    length : float
+        Distance from its first to its second joint, m.
+
+    Returns
+    -------
+    list of (float, float)
+        Far ends of the bars, m.
+    """
+    bars = [(float(length), 0.0)]
+    for point in description.get("points", {}).values():
+        x, y = point["at"]
+        if point["link"] == link and not (y == 0.0 and 0.0 <= x <= length):
+            bars.append((float(x), float(y)))
+    return bars
+
+
+def four_bar_loops(mech: Mapping) -> list[tuple[float, float, float, float]]:
+    """(ground, input, coupler, output) lengths of each four-bar loop of a preset, m.
+
+    The loops whose Grashof type classifies the mechanism: the four-bar itself; for
+    ``watt_ii`` also the second four-bar D–E–F–G, driven by the rocker's arm D→E. A
+    ``stephenson_iii``'s second loop is a five-bar (its dyad hangs on the coupler) and has
+    no Grashof type.
+
+    Parameters
+    ----------
+    mech : mapping
+        Normalized mechanism block of type ``four_bar``, ``watt_ii`` or ``stephenson_iii``.
+
+    Returns
+    -------
+    list of tuple
+        One (ground, input, coupler, output) tuple per four-bar loop, m.
+    """
+    loops = [(mech["ground"], mech["crank"], mech["coupler"], mech["rocker"])]
+    if mech["type"] == "watt_ii":
+        ground2 = math.hypot(mech["pivot2_x"] - mech["ground"], mech["pivot2_y"])
+        loops.append((ground2, mech["rocker_arm"], mech["coupler2"], mech["rocker2"]))
+    return loops
+
+
+#: Input angles sampled per revolution (or over a rocker's range) by the assembly check.
+ASSEMBLY_SAMPLES = 3601
+
+
+def _rotate(at, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([at[0] * c - at[1] * s, at[0] * s + at[1] * c], axis=-1)
+
+
+def assembly_error(description: Mapping, angles: np.ndarray) -> str | None:
+    """Why a dyad description cannot be assembled at some input angle, or None.
+
+    Every RRR dyad needs |l1 − l2| ≤ |PQ| ≤ l1 + l2 and every RRP dyad |h| < l1 (h the
+    distance of P from the guide) at every input angle; checked on the given samples, so a
+    failure narrower than their spacing can pass (the default
+    :data:`ASSEMBLY_SAMPLES` per revolution leaves gaps of 0.1°).
+
+    Parameters
+    ----------
+    description : mapping
+        A dyad description (:func:`describe`).
+    angles : ndarray, (n,)
+        Input angles to check, rad.
+
+    Returns
+    -------
+    str or None
+        A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
+    """
+    inp = description["input"]
+    known = {name: np.broadcast_to(np.asarray(xy, float), angles.shape + (2,))
+             for name, xy in description["ground"].items()}
+    frame = {inp["link"]: (known[inp["pivot"]], angles)}
+
+    ends = {inp["link"]: inp["tip"]}
+    ends.update({d["links"][0]: d["joints"][1] for d in description["dyads"]})
+
+    def place(link, length):
+        origin, angle = frame[link]
+        known.setdefault(ends[link], origin + _rotate((length, 0.0), angle))
+        for name, point in description.get("points", {}).items():
+            if point["link"] == link:
+                known[name] = origin + _rotate(point["at"], angle)
+
+    ends.update({d["links"][1]: d["joints"][1] for d in description["dyads"]})
+    place(inp["link"], inp["length"])
+    rtol = 1e-9
+    for i, dyad in enumerate(description["dyads"]):
+        P = known[dyad["joints"][0]]
+        l1 = dyad["lengths"][0]
+        sign = 1.0 if dyad["branch"] == "open" else -1.0
+        if dyad["kind"] == "RRR":
+            l2 = dyad["lengths"][1]
+            Q = known[dyad["joints"][2]]
+            d = Q - P
+            dist = np.hypot(d[..., 0], d[..., 1])
+            bad = (dist > (l1 + l2) * (1 + rtol)) | (dist < abs(l1 - l2) * (1 - rtol))
+            if bad.any():
+                k = int(np.argmax(bad))
+                return (f"dyads[{i}]: the RRR dyad {join(dyad['links'])} "
+                        f"cannot be assembled at input angle {angles[k]:.4g} rad: "
+                        f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m is outside "
+                        f"[|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m")
+            cos_beta = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2 * l1 * dist), -1, 1)
+            th1 = np.arctan2(d[..., 1], d[..., 0]) + sign * np.arccos(cos_beta)
+            M = P + _rotate((l1, 0.0), th1)
+            th2 = np.arctan2(M[..., 1] - Q[..., 1], M[..., 0] - Q[..., 0])
+            frame[dyad["links"][0]], frame[dyad["links"][1]] = (P, th1), (Q, th2)
+            place(dyad["links"][0], l1)
+            place(dyad["links"][1], l2)
+        else:
+            phi = dyad["guide"]["angle"]
+            normal = np.array([-math.sin(phi), math.cos(phi)])
+            h = (P - np.asarray(dyad["guide"]["point"])) @ normal
+            bad = np.abs(h) >= l1 * (1 - rtol)
+            if bad.any():
+                k = int(np.argmax(bad))
+                return (f"dyads[{i}]: the RRP dyad {dyad['links'][0]} cannot reach its "
+                        f"guide at input angle {angles[k]:.4g} rad: {dyad['joints'][0]} is "
+                        f"{abs(h[k]):.4g} m from it, the link {l1:g} m long")
+            th1 = phi + np.arctan2(-h / l1, sign * np.sqrt(1 - (h / l1) ** 2))
+            frame[dyad["links"][0]] = (P, th1)
+            place(dyad["links"][0], l1)
+    return None

@@ -1,0 +1,208 @@
+"""Rigid kinematics of any linkage built from dyads, closed form per dyad, batched.
+
+The input link turns about its ground pivot; each dyad is then placed in order from two
+known points (RRR) or a known point and a fixed guide (RRP), exactly as the four-bar and the
+slider-crank of :mod:`ced.rigid.kinematics` (which are the one-dyad cases, docs/theory.md
+"Linkages built from dyads"). Velocities and accelerations follow from the differentiated
+closure of each dyad, in the same order, so every quantity is exact to round-off.
+Shapes as in :mod:`ced.rigid.kinematics`: lengths (case,), motion (case, step).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..problem.linkage import linkage_topology
+from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, fill_singular, perp,
+                         track_branch, unit)
+
+__all__ = ["linkage", "dyad_sines", "point_motion"]
+
+
+def _column(descriptions: list[dict], get) -> np.ndarray:
+    return np.array([get(d) for d in descriptions], float)
+
+
+def point_motion(base, angle, velocity, acceleration, local):
+    """Position, velocity and acceleration of a point fixed in a moving link frame.
+
+    Parameters
+    ----------
+    base : tuple of ndarray, each (case, step, 2)
+        Position (m), velocity (m/s), acceleration (m/s²) of the frame's origin.
+    angle, velocity, acceleration : ndarray, (case, step)
+        The frame's angle (rad), angular velocity (rad/s) and acceleration (rad/s²).
+    local : ndarray, (case, 2)
+        The point in the frame, m.
+
+    Returns
+    -------
+    tuple of ndarray, each (case, step, 2)
+        Position, velocity and acceleration of the point.
+    """
+    x, y = local[:, None, 0, None], local[:, None, 1, None]
+    r = x * unit(angle) + y * perp(angle)  # R(θ) local, global
+    r_perp = np.stack([-r[..., 1], r[..., 0]], axis=-1)
+    w, al = velocity[..., None], acceleration[..., None]
+    return (base[0] + r, base[1] + w * r_perp, base[2] + al * r_perp - w * w * r)
+
+
+def _rrr(P, Q, l1, l2, branch):
+    """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M."""
+    d = Q[0] - P[0]
+    dist = np.hypot(d[..., 0], d[..., 1])
+    psi = np.arctan2(d[..., 1], d[..., 0])
+    cos_beta = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist), -1.0, 1.0)
+    beta = np.arccos(cos_beta)
+    candidates = np.stack([psi + beta, psi - beta])  # M left / right of P→Q
+    start = np.where(branch > 0, 0, 1)
+    # A dyad that assembles over the whole motion has its two solutions meet only where the
+    # loop passes a change point: there the one continuing straight through is kept.
+    th1 = np.unwrap(track_branch(candidates, start, np.ones(len(l1), bool)), axis=1)
+    M = P[0] + l1[..., None] * unit(th1)
+    diff = M - Q[0]
+    th2 = np.unwrap(np.arctan2(diff[..., 1], diff[..., 0]), axis=1)
+    # l1 ω1 e⊥1 − l2 ω2 e⊥2 = vQ − vP, dotted with e2 and e1 (e⊥i·ej = sin(θj − θi)).
+    s21 = np.sin(th2 - th1)
+    singular = np.abs(s21) < SINGULAR_SIN
+    safe = np.where(singular, 1.0, s21)
+    e1, e2 = unit(th1), unit(th2)
+    dv = Q[1] - P[1]
+    w1 = np.sum(dv * e2, axis=-1) / (l1 * safe)
+    w2 = np.sum(dv * e1, axis=-1) / (l2 * safe)
+    w1, w2 = fill_singular(w1, singular), fill_singular(w2, singular)
+    da = Q[2] - P[2] + (l1 * w1 * w1)[..., None] * e1 - (l2 * w2 * w2)[..., None] * e2
+    al1 = np.sum(da * e2, axis=-1) / (l1 * safe)
+    al2 = np.sum(da * e1, axis=-1) / (l2 * safe)
+    al1, al2 = fill_singular(al1, singular), fill_singular(al2, singular)
+    return (th1, w1, al1), (th2, w2, al2), singular
+
+
+def _rrp(P, length, guide_angle, guide_point, branch):
+    """Place an RRP dyad: the link P→M with M on the fixed guide; angle, rate, acceleration."""
+    phi = guide_angle[:, None]
+    n = perp(phi)  # guide normal, (case, 1, 2)
+    height = np.sum((P[0] - guide_point[:, None]) * n, axis=-1)
+    # n·(M − P) = −h with M − P = l e1: sin(θ1 − φ) = −h/l, cos(θ1 − φ) = ±√(1 − sin²).
+    sin_rel = -height / length
+    cos_rel = branch * np.sqrt(np.clip(1.0 - sin_rel**2, 0.0, None))
+    th = np.unwrap(np.arctan2(sin_rel, cos_rel), axis=1) + phi
+    # n·vM = 0 and n·aM = 0 on a fixed guide (n·e⊥1 = cos(θ1 − φ), n·e1 = sin(θ1 − φ)).
+    w = -np.sum(P[1] * n, axis=-1) / (length * cos_rel)
+    al = (-np.sum(P[2] * n, axis=-1) + length * w * w * sin_rel) / (length * cos_rel)
+    return th, w, al
+
+
+def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
+    """Closed-form kinematics of a batch of linkages of one dyad structure.
+
+    Parameters
+    ----------
+    descriptions : list of dict
+        One dyad description per case (:func:`ced.problem.linkage.describe`), all with the
+        same names and dyad kinds; lengths in m, angles in rad.
+    motion : InputMotion
+        The input link's angle, angular velocity and acceleration, (case, step).
+
+    Returns
+    -------
+    RigidMotion
+        Angles and rates of every link (case, step, link), positions, velocities and
+        accelerations of every joint (case, step, joint, 2), the link lengths first→second
+        joint (case, link) and the guide angle of every slider block (rad, (case,)).
+    """
+    first = descriptions[0]
+    topo = linkage_topology(first)
+    shape = motion.angle.shape
+    zero = np.zeros(shape + (2,))
+    known: dict[str, tuple] = {}
+    for name in first["ground"]:
+        position = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
+        known[name] = (np.broadcast_to(position, shape + (2,)).copy(), zero, zero)
+    angles: dict[str, tuple] = {}
+    lengths: dict[str, np.ndarray] = {}
+    guide_angle: dict[str, np.ndarray] = {}
+    singular = np.zeros(shape, bool)
+    inp = first["input"]
+    lengths[inp["link"]] = _column(descriptions, lambda d: d["input"]["length"])
+    angles[inp["link"]] = (motion.angle, motion.velocity, motion.acceleration)
+    known_points = {}
+
+    def place(link: str) -> None:
+        """Known points at the second joint and at the points of a placed link."""
+        start = known[topo.links[link][0]]
+        local = {topo.links[link][1]: np.stack([lengths[link], 0 * lengths[link]], axis=-1)}
+        for name, point in first.get("points", {}).items():
+            if point["link"] == link:
+                local[name] = _column(descriptions, lambda d: d["points"][name]["at"])
+        for name, xy in local.items():
+            known_points[name] = point_motion(start, *angles[link], xy)
+            known.setdefault(name, known_points[name])
+
+    place(inp["link"])
+    for k, dyad in enumerate(first["dyads"]):
+        l1, l2 = dyad["links"]
+        P = known[dyad["joints"][0]]
+        branch = _column(descriptions, lambda d: 1.0 if d["dyads"][k]["branch"] == "open"
+                         else -1.0)[:, None]
+        lengths[l1] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][0])
+        if dyad["kind"] == "RRR":
+            Q = known[dyad["joints"][2]]
+            lengths[l2] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][1])
+            angles[l1], angles[l2], bad = _rrr(P, Q, lengths[l1][:, None],
+                                               lengths[l2][:, None], branch[:, 0])
+            singular |= bad
+            place(l1)
+            place(l2)
+        else:
+            phi = _column(descriptions, lambda d: d["dyads"][k]["guide"]["angle"])
+            point = _column(descriptions, lambda d: d["dyads"][k]["guide"]["point"])
+            angles[l1] = _rrp(P, lengths[l1][:, None], phi, point, branch)
+            guide_angle[l2] = phi
+            place(l1)
+    names = topo.link_names
+    joints = [known[j] for j in topo.joint_names]
+    return RigidMotion(
+        topology=topo,
+        time=motion.time,
+        lengths=np.stack([lengths[n] for n in names], axis=-1),
+        link_angle=np.stack([angles[n][0] for n in names], axis=-1),
+        link_angular_velocity=np.stack([angles[n][1] for n in names], axis=-1),
+        link_angular_acceleration=np.stack([angles[n][2] for n in names], axis=-1),
+        joint_position=np.stack([j[0] for j in joints], axis=2),
+        joint_velocity=np.stack([j[1] for j in joints], axis=2),
+        joint_acceleration=np.stack([j[2] for j in joints], axis=2),
+        singular=singular,
+        guide_angle=guide_angle,
+    )
+
+
+def dyad_sines(motion: RigidMotion, description: dict) -> np.ndarray:
+    """|sin| of the angle between the two links of every RRR dyad, (case, step, dyad).
+
+    The transmission quality of each dyad: where it falls to 0 the dyad is at a toggle and the
+    pin-jointed structure loses its stiffness across the dyad (as the four-bar's
+    :func:`ced.problem.mechanism.dyad_sine_min`); RRP dyads give |cos(θ_rod − φ_guide)|.
+
+    Parameters
+    ----------
+    motion : RigidMotion
+        Rigid motion of linkages with the structure of ``description``.
+    description : dict
+        A dyad description (:func:`ced.problem.linkage.describe`).
+
+    Returns
+    -------
+    ndarray, (case, step, dyad)
+        Dimensionless, in [0, 1].
+    """
+    names = motion.topology.link_names
+    out = []
+    for dyad in description["dyads"]:
+        th1 = motion.link_angle[..., names.index(dyad["links"][0])]
+        if dyad["kind"] == "RRR":
+            th2 = motion.link_angle[..., names.index(dyad["links"][1])]
+            out.append(np.abs(np.sin(th2 - th1)))
+        else:
+            out.append(np.abs(np.cos(th1 - motion.guide_angle[dyad["links"][1]][:, None])))
+    return np.stack(out, axis=-1)
+

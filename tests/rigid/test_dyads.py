@@ -1,0 +1,218 @@
+"""Linkages of dyads: the general closed form against the four-bar and slider-crank, loop
+closure, finite differences and the power balance of six-bars with ternary links."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ced.problem.linkage import describe
+from ced.problem.scene import load_scene
+from ced.response.batch import make_batch
+from ced.rigid import dyads
+from ced.rigid import kinematics as kin
+from ced.rigid.inverse_dynamics import BodyProperties, inverse_dynamics, kinetic_energy_rate
+from tests.conftest import check_derivatives, drive_of, four_bars
+
+RIGID = {"discretization": {"formulation": "rigid"}}
+
+WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+           "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+           "pivot2_x": 0.2, "pivot2_y": -0.3}
+STEPHENSON_III = {"type": "stephenson_iii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                  "rocker": 0.35, "coupler_arm": 0.3, "coupler_arm_angle": 0.6,
+                  "coupler2": 0.4, "rocker2": 0.3, "pivot2_x": 0.4, "pivot2_y": 0.55}
+#: A four-bar driving a press ram through an inclined guide (RRP) from a point of its rocker.
+PRESS = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [0.5, 0.0]},
+         "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+         "points": {"E": {"link": "rocker", "at": [0.2, -0.15]}},
+         "dyads": [{"kind": "RRR", "links": ["coupler", "rocker"], "joints": ["B", "C", "D"],
+                    "lengths": [0.45, 0.35]},
+                   {"kind": "RRP", "links": ["rod", "ram"], "joints": ["E", "F"],
+                    "lengths": [0.5], "guide": {"point": [0.9, -0.05], "angle": 0.3},
+                    "slider_mass": 1.5, "branch": "crossed"}]}
+MECHANISMS = {"watt_ii": WATT_II, "stephenson_iii": STEPHENSON_III, "press": PRESS}
+
+
+def _scene(mechanism, **extra):
+    return load_scene({**RIGID, "mechanism": mechanism, "gravity": [0.3, -9.81],
+                       "effects": ["inertia", "gravity"],
+                       "point_masses": {"C": 0.2, "E": 0.1, "F": 0.3}, **extra})
+
+
+def _motion(scene, times):
+    batch = make_batch([scene])
+    return batch, batch.rigid_motion(times)
+
+
+@given(four_bars())
+@settings(max_examples=30, deadline=None)
+def test_four_bar_preset_matches_the_closed_form(linkage):
+    g, a, b, c, branch = linkage
+    theta0, amp = drive_of(g, a, b, c)
+    times = np.linspace(0.0, 2 * np.pi / 7.0, 241)[None]
+    motion = kin.input_motion(times, np.array([7.0]), np.array([theta0]), np.array([amp]))
+    mech = {"type": "four_bar", "ground": g, "crank": a, "coupler": b, "rocker": c,
+            "branch": "open" if branch > 0 else "crossed"}
+    ref = kin.four_bar(*(np.array([x]) for x in (g, a, b, c)), motion, np.array([branch]))
+    got = dyads.linkage([describe(mech)], motion)
+    scale = g + a + b + c
+    assert got.topology == ref.topology
+    assert np.abs(got.joint_position - ref.joint_position).max() < 1e-13 * scale
+    for name in ("link_angular_velocity", "link_angular_acceleration", "joint_velocity",
+                 "joint_acceleration"):
+        value, expected = getattr(got, name), getattr(ref, name)
+        assert np.abs(value - expected).max() < 1e-10 * (np.abs(expected).max() + 1.0), name
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.03, -0.05])
+@pytest.mark.parametrize("branch", ["open", "crossed"])
+def test_slider_crank_preset_matches_the_closed_form(offset, branch):
+    mech = {"type": "slider_crank", "crank": 0.1, "rod": 0.3, "offset": offset,
+            "slider_mass": 0.4, "branch": branch}
+    times = np.linspace(0.0, 1.0, 301)[None]
+    motion = kin.input_motion(times, np.array([9.0]), np.array([0.4]))
+    ref = kin.slider_crank(np.array([0.1]), np.array([0.3]), np.array([offset]), motion,
+                           np.array([1.0 if branch == "open" else -1.0]))
+    got = dyads.linkage([describe(mech)], motion)
+    for name in ("link_angle", "joint_position", "link_angular_velocity", "joint_velocity",
+                 "link_angular_acceleration", "joint_acceleration"):
+        value, expected = getattr(got, name), getattr(ref, name)
+        assert np.abs(value - expected).max() < 1e-11 * (np.abs(expected).max() + 1.0), name
+    assert float(got.guide_angle["slider"][0]) == 0.0
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+def test_six_bar_loop_closure_to_round_off(name):
+    scene = _scene(MECHANISMS[name])
+    batch = make_batch([scene])
+    motion = batch.rigid_motion(np.linspace(0.0, 2 * np.pi / batch.speed[0], 1441)[None])
+    topo, position = motion.topology, motion.joint_position[0]
+    at = {j: position[:, k] for k, j in enumerate(topo.joint_names)}
+    description = describe(scene["mechanism"])
+    for i, (link, (first, second)) in enumerate(topo.links.items()):
+        length = np.linalg.norm(at[second] - at[first], axis=-1)
+        assert np.abs(length - motion.lengths[0, i]).max() < 1e-14
+        # Joint angles agree with the link angles.
+        d = at[second] - at[first]
+        angle = np.arctan2(d[:, 1], d[:, 0])
+        assert np.abs(np.angle(np.exp(1j * (angle - motion.link_angle[0, :, i])))).max() < 1e-13
+    for point, spec in description["points"].items():
+        i = topo.link_names.index(spec["link"])
+        th = motion.link_angle[0, :, i]
+        r = at[point] - at[topo.links[spec["link"]][0]]
+        local = np.stack([np.cos(th) * r[:, 0] + np.sin(th) * r[:, 1],
+                          -np.sin(th) * r[:, 0] + np.cos(th) * r[:, 1]], axis=-1)
+        assert np.abs(local - spec["at"]).max() < 1e-15
+    for pivot, xy in description["ground"].items():
+        assert np.abs(at[pivot] - xy).max() == 0.0
+    for k, dyad in enumerate(description["dyads"]):
+        P, M = (at[j] for j in dyad["joints"][:2])
+        side = (M - P)
+        if dyad["kind"] == "RRR":
+            Q = at[dyad["joints"][2]]
+            cross = (Q - P)[:, 0] * side[:, 1] - (Q - P)[:, 1] * side[:, 0]
+            assert np.all(np.sign(cross) == (1 if dyad["branch"] == "open" else -1))
+        else:  # M on the guide, on the chosen side of P
+            u = np.array([math.cos(dyad["guide"]["angle"]), math.sin(dyad["guide"]["angle"])])
+            normal = np.array([-u[1], u[0]])
+            assert np.abs((M - dyad["guide"]["point"]) @ normal).max() < 1e-15
+            assert np.all(np.sign(side @ u) == (1 if dyad["branch"] == "open" else -1))
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+@pytest.mark.parametrize("phase", [0.0, 0.37, 0.81])
+def test_six_bar_derivatives_match_finite_differences(name, phase):
+    scene = _scene(MECHANISMS[name])
+    speed = 100.0
+    dt = 1e-4 / speed
+    times = (phase * 2 * np.pi / speed + dt * np.arange(-4, 5))[None]
+    _, r = _motion(scene, times)
+    check_derivatives(r, dt, speed, 1e-7)
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+def test_six_bar_power_balance(name):
+    """Input power = d(T + V)/dt with ternary links, point masses, gravity and a slider."""
+    scene = _scene(MECHANISMS[name])
+    batch = make_batch([scene])
+    motion = batch.rigid_motion()
+    forces = inverse_dynamics(motion, batch.bodies, batch.gravity)
+    power = forces.input_torque * motion.link_angular_velocity[..., 0]
+    rate = kinetic_energy_rate(motion, batch.bodies, batch.gravity)
+    assert np.abs(power - rate).max() < 1e-9 * np.abs(rate).max()
+    # The rate itself is checked against a finite difference of T + V along the motion.
+    energy = _energy(motion, batch.bodies, batch.gravity)
+    h = batch.step_size[0]
+    fd = (energy[0, 2:] - energy[0, :-2]) / (2 * h)
+    assert np.abs(fd - rate[0, 1:-1]).max() < 2e-4 * np.abs(rate).max()
+
+
+def _energy(motion, bodies, gravity):
+    """T + V of every body from positions and velocities only (central differences check)."""
+    from ced.rigid.dyads import point_motion
+
+    total = np.zeros(motion.time.shape)
+    g = gravity[:, None, :]
+    topo = motion.topology
+    for i, link in enumerate(topo.link_names):
+        k = topo.joint_names.index(topo.links[link][0])
+        base = tuple(x[:, :, k] for x in (motion.joint_position, motion.joint_velocity,
+                                          motion.joint_acceleration))
+        x, v, _ = point_motion(base, motion.link_angle[..., i],
+                               motion.link_angular_velocity[..., i],
+                               motion.link_angular_acceleration[..., i], bodies.centre[:, i])
+        m = bodies.mass[:, i][:, None]
+        w = motion.link_angular_velocity[..., i]
+        total += 0.5 * m * np.sum(v * v, -1) + 0.5 * bodies.inertia[:, i][:, None] * w * w
+        total -= m * np.sum(x * g, -1)
+    masses = bodies.point_mass.copy()
+    for s, slider in enumerate(topo.sliders):
+        masses[:, topo.joint_names.index(topo.sliders[slider])] += bodies.slider_mass[:, s]
+    for k in range(len(topo.joint_names)):
+        x, v = motion.joint_position[:, :, k], motion.joint_velocity[:, :, k]
+        total += masses[:, k][:, None] * (0.5 * np.sum(v * v, -1) - np.sum(x * g, -1))
+    return total
+
+
+def test_ternary_mass_properties_of_a_bell_crank():
+    """Rocker of the Watt II: bars D→C (0.35 m) and D→E (0.25 m at 2.5 rad), welded at D."""
+    scene = _scene(WATT_II)
+    bodies = make_batch([scene]).bodies
+    i = list(scene["links"]).index("rocker")
+    link = scene["links"]["rocker"]
+    rho_a = link["material"]["rho"] * link["section"]["area"]
+    rho_i = link["material"]["rho"] * link["section"]["second_moment"]
+    m1, m2 = rho_a * 0.35, rho_a * 0.25
+    c1, c2 = np.array([0.175, 0.0]), 0.125 * np.array([math.cos(2.5), math.sin(2.5)])
+    centre = (m1 * c1 + m2 * c2) / (m1 + m2)
+    # Inertia about D: Σ ρAℓ³/3 + ρIℓ; then about the centre by the parallel-axis theorem.
+    about_d = rho_a * (0.35**3 + 0.25**3) / 3 + rho_i * (0.35 + 0.25)
+    assert bodies.mass[0, i] == pytest.approx(m1 + m2, rel=1e-14)
+    assert np.allclose(bodies.centre[0, i], centre, rtol=1e-14, atol=0)
+    assert bodies.inertia[0, i] == pytest.approx(about_d - (m1 + m2) * centre @ centre,
+                                                 rel=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["watt_ii", "stephenson_iii"])
+def test_massless_second_loop_leaves_the_four_bar_torque(kind):
+    """Exact limit: a second dyad of vanishing density adds nothing to the first loop, whose
+    input torque is then the four-bar's with the ternary link's own mass properties."""
+    light = {"material": {"E": 2.1e11, "rho": 1e-9, "nu": 0.3}, "flexible": False}
+    six = load_scene({**RIGID, "mechanism": MECHANISMS[kind], "effects": ["inertia", "gravity"],
+                      "links": {"coupler2": light, "rocker2": light}})
+    loop = {k: MECHANISMS[kind][k] for k in ("ground", "crank", "coupler", "rocker")}
+    four = load_scene({**RIGID, "mechanism": {"type": "four_bar", **loop},
+                       "effects": ["inertia", "gravity"]})
+    b6, b4 = make_batch([six]), make_batch([four])
+    # The four-bar's links with the six-bar's mass properties (the ternary link's arm counts).
+    n = len(b4.topology.links)
+    bodies = BodyProperties(b6.bodies.mass[:, :n], b6.bodies.inertia[:, :n],
+                            b4.bodies.point_mass, b4.bodies.slider_mass, b6.bodies.centre[:, :n])
+    arm = "rocker" if kind == "watt_ii" else "coupler"
+    i = b4.topology.link_names.index(arm)
+    assert bodies.mass[0, i] > 1.5 * b4.bodies.mass[0, i]  # the arm is really there
+    t6 = inverse_dynamics(b6.rigid_motion(), b6.bodies, b6.gravity).input_torque
+    t4 = inverse_dynamics(b4.rigid_motion(), bodies, b4.gravity).input_torque
+    assert np.abs(t6 - t4).max() < 1e-8 * np.abs(t4).max()

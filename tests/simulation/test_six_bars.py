@@ -1,0 +1,47 @@
+"""Six-bars and linkages of dyads through simulate: rigid datasets, documented coordinates,
+and the elastic model refused clearly (not implemented yet)."""
+import numpy as np
+import pytest
+
+from ced.io import write_dataset
+from ced.problem.scene import SceneError
+from ced.response.batch import make_batch
+from ced.rigid.inverse_dynamics import inverse_dynamics
+from ced.problem.scene import load_scene
+from ced.simulation.dataset import CASE_COORDINATES
+from ced.simulation.simulate import simulate
+from tests.rigid.test_dyads import PRESS, STEPHENSON_III, WATT_II
+
+RIGID = {"discretization": {"formulation": "rigid"},
+         "time": {"revolutions": 1, "steps_per_revolution": 32}}
+
+
+@pytest.mark.parametrize("mechanism", [WATT_II, STEPHENSON_III, PRESS])
+def test_rigid_dataset_of_a_six_bar(mechanism, tmp_path):
+    scenes = [{"mechanism": mechanism, **RIGID}, {"mechanism": mechanism, **RIGID,
+                                                  "drive": {"speed": 40.0}}]
+    ds = simulate(scenes)
+    batch = make_batch([load_scene(s) for s in scenes])
+    motion = batch.rigid_motion()
+    forces = inverse_dynamics(motion, batch.bodies, batch.gravity)
+    assert list(ds.link.values) == batch.topology.link_names
+    assert list(ds.joint.values) == batch.topology.joint_names
+    assert np.array_equal(ds.input_torque.values, forces.input_torque)
+    assert np.array_equal(ds.joint_force.values, forces.joint_force)
+    assert ("guide_force" in ds) == (mechanism is PRESS)
+    for name, coord in ds.coords.items():
+        if coord.dims == ("case",) and name != "case":
+            assert name in CASE_COORDINATES, name
+            assert coord.attrs.get("units", "") == CASE_COORDINATES[name][0], name
+    write_dataset(ds, tmp_path / "six.nc")
+
+
+@pytest.mark.parametrize("discretization", [None, "auto", {"formulation": "timoshenko"}])
+def test_elastic_model_of_a_six_bar_is_refused_naming_the_key(discretization):
+    scene = {"mechanism": WATT_II}
+    if discretization is not None:
+        scene["discretization"] = discretization
+    with pytest.raises(SceneError) as info:
+        load_scene(scene)
+    assert info.value.path == "discretization.formulation"
+    assert "rigid analysis only" in str(info.value)
