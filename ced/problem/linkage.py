@@ -28,8 +28,6 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
-
 from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
 
 __all__ = ["DYAD_KINDS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
@@ -247,7 +245,7 @@ def check_description(mech: dict, path: str = "mechanism") -> None:
                                      "remove it or attach a dyad there")
 
 
-def _rocker_point(arm: float, angle: float) -> list[float]:
+def _arm_point(arm: float, angle: float) -> list[float]:
     return [arm * math.cos(angle), arm * math.sin(angle)]
 
 
@@ -294,7 +292,7 @@ def describe(mech: Mapping) -> dict:
         return out
     out["ground"]["G"] = [mech["pivot2_x"], mech["pivot2_y"]]
     host, arm = ("rocker", "rocker_arm") if kind == "watt_ii" else ("coupler", "coupler_arm")
-    out["points"] = {"E": {"link": host, "at": _rocker_point(mech[arm], mech[f"{arm}_angle"])}}
+    out["points"] = {"E": {"link": host, "at": _arm_point(mech[arm], mech[f"{arm}_angle"])}}
     out["dyads"].append({"kind": "RRR", "links": ["coupler2", "rocker2"],
                          "joints": ["E", "F", "G"],
                          "lengths": [mech["coupler2"], mech["rocker2"]],
@@ -423,11 +421,13 @@ ASSEMBLY_SAMPLES = 3601
 
 
 def _rotate(at, angle):
+    import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
+
     c, s = np.cos(angle), np.sin(angle)
     return np.stack([at[0] * c - at[1] * s, at[0] * s + at[1] * c], axis=-1)
 
 
-def assembly_error(description: Mapping, angles: np.ndarray) -> str | None:
+def assembly_error(description: Mapping, angles) -> str | None:
     """Why a dyad description cannot be assembled at some input angle, or None.
 
     Every RRR dyad needs |l1 − l2| ≤ |PQ| ≤ l1 + l2 and every RRP dyad |h| < l1 (h the
@@ -447,6 +447,8 @@ def assembly_error(description: Mapping, angles: np.ndarray) -> str | None:
     str or None
         A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
     """
+    import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
+
     inp = description["input"]
     known = {name: np.broadcast_to(np.asarray(xy, float), angles.shape + (2,))
              for name, xy in description["ground"].items()}

@@ -3,6 +3,8 @@
 Four-bar naming (docs/theory.md, docs/guide/first_scene.md): ground pivots A = (0, 0) and D = (ground, 0); links crank (A→B),
 coupler (B→C), rocker (D→C). Slider-crank: crank (A→B), rod (B→C), slider at C on a guide
 parallel to x at signed ``offset``. Single link: one link A→B driven about A, free tip B.
+Six-bars (``watt_ii``, ``stephenson_iii``) and any ``linkage`` are built from dyads
+(:mod:`ced.problem.linkage`); their first loop, a four-bar, is classified here.
 
 The family is named by the motion of the input link (the crank position) and the output link
 (the rocker position), thesis I.1.1 (Grashof's law).
