@@ -23,7 +23,7 @@ from .integrators import from_independent, integrator_for, stability_limit, star
 from .kernels import expand, static_period
 from .marching import Marcher
 from .model import Model, build_model, terms_at
-from .period_terms import PeriodTerms, period_terms
+from .period_terms import PeriodTerms, interpolate_periodic, period_terms
 from .periodic import INSTABILITY_MARGIN, shoot
 from .resonance import forced_resonance
 
@@ -155,10 +155,24 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
 
 
 def _static(period: PeriodTerms) -> np.ndarray:
-    """Quasi-static response K y = F at every step of the period (case, P, ny)."""
-    y = np.empty(period.force.shape)
+    """Quasi-static response K y = F at every step of the period (case, P, ny).
+
+    Where the terms were sampled, y is solved at the samples and interpolated like them
+    (smooth and periodic as they are; the interpolation error checked the same way), else
+    at every step."""
+    if period.sampled is not None:
+        y = interpolate_periodic(_solve_static(period.sampled["stiffness"],
+                                               period.sampled["force"]), period.period)
+        if y is not None:
+            return y
+    return _solve_static(period.stiffness, period.force)
+
+
+def _solve_static(K: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """K y = F for every (case, phase): K (case, m, n, n), F (case, m, n) → y (case, m, n)."""
+    y = np.empty(F.shape)
     ok = np.ones(len(y), bool)
-    static_period(period.stiffness, period.force, y, ok)
+    static_period(np.ascontiguousarray(K), np.ascontiguousarray(F), y, ok)
     if not ok.all():  # as numpy's solve would: the batch is re-run case by case
         raise np.linalg.LinAlgError(
             f"Singular matrix: the stiffness of case {int(np.argmax(~ok))}")
