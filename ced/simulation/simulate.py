@@ -238,6 +238,18 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
     return solved
 
 
+def _in_order(parts: list[np.ndarray], solved: list[tuple]) -> np.ndarray:
+    """One variable of the solved groups in the caller's order of cases, copied once (not at
+    all when a single group holds the cases in order: the histories are most of the memory)."""
+    indices = [np.asarray(ix) for _, ix, _, _ in solved]
+    if len(parts) == 1 and np.array_equal(indices[0], np.arange(len(indices[0]))):
+        return parts[0]
+    out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:], parts[0].dtype)
+    for ix, part in zip(indices, parts):
+        out[ix] = part
+    return out
+
+
 def _case_peak(peak_stress: np.ndarray) -> np.ndarray:
     """(case, link) → (case,): the largest peak over the links (NaN-safe), Pa."""
     with np.errstate(invalid="ignore"):
@@ -344,7 +356,7 @@ def simulate(scenes) -> xr.Dataset:
     order = np.argsort(np.array(positions))
     results = [result for _, _, result, _ in solved]
     names = set.intersection(*(set(r) for r in results))
-    data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
+    data = {name: _in_order([r[name] for r in results], solved) for name in names}
     data["solve_time"] = np.concatenate(
         [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
