@@ -36,19 +36,13 @@ that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, n
    per flexible link plus static load vectors (component-mode synthesis, truncation below 1e-5
    on the reference four-bar), whichever costs less.
 
-One discretization serves all ``auto`` scenes of a call, so that they share one time grid
-(one ``step`` dimension) and batch together; so the ladders are shared too. Every case solves
-the first rung (its first frequency); then :data:`PILOT_CASES` of them, the extremes and
-quantiles of the demand (:func:`representatives`), climb the ladders and the most demanding
-pilot's choice is taken: the pilots' cost does not grow with the number of cases. Per case
-the variable ``discretization_auto`` (JSON) records the choice and the pilot cases; for a
-pilot also its own choice, both ladders, the predicted error at the chosen setting — its
-``error_estimate``: the ladders are its companion solutions — and whether the tolerance was
-reachable within the ladders' limits (where it was not, the ladders' finest rungs are used
-and ``status`` has ``tolerance_unmet``). Every other case is checked by its own error
-estimate (``ced.auto.error_estimate``, computed for it whatever ``outputs.error_estimate``
-says), which :mod:`ced.simulation.simulate` records as its predicted error and compares with
-its tolerance.
+One discretization serves all ``auto`` scenes of a call, the most demanding one's, so that
+they share one time grid (one ``step`` dimension) and batch together. Per case the variable
+``discretization_auto`` (JSON) records the choice, the case's own choice, both ladders, the
+predicted error and whether the tolerance was reachable within the ladders' limits (where it
+was not, the ladders' finest rungs are used and ``status`` has ``tolerance_unmet``). The
+predicted error at the chosen setting is also the case's ``error_estimate``: the ladders are
+its companion solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases).
 """
 from __future__ import annotations
 
