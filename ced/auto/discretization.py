@@ -54,8 +54,8 @@ import numpy as np
 
 from .error_estimate import TIME_ORDER
 
-__all__ = ["resolve_discretization", "representatives", "ladder_errors", "interpolate",
-           "predicted_error", "choose", "cost", "MODES", "SAFETY", "PILOT_CASES"]
+__all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
+           "choose", "cost", "MODES", "SAFETY"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
@@ -74,12 +74,6 @@ MAX_LADDER_STEPS, MAX_LADDER_ELEMENTS = 4096, 128
 #: A mode below this crank harmonic can be resonantly excited: the time ladder resolves it,
 #: ω₁h ≤ RESOLVED (the asymptotic range of the integrators, as in ``ced.auto.error_estimate``).
 RESONANT_HARMONICS, RESOLVED = 16, 0.5
-#: Cases of a call that climb the ladders: the extremes and quantiles of the demand (the
-#: steps a resolved first mode needs, then the speed). The setting is shared by every case
-#: (one time grid), so the others take it unclimbed and are checked by their own
-#: error estimate (``ced.auto.error_estimate``) instead: the pilots' cost no longer grows with
-#: the number of cases.
-PILOT_CASES = 4
 #: Predicted error must be below tolerance / SAFETY. The rungs' errors are measured against
 #: each ladder's extrapolated limit, which is itself uncertain by up to the last rung's error
 #: (at most tolerance / (2 SAFETY)): the margin covers the two.
@@ -295,73 +289,6 @@ def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[li
     return peaks
 
 
-def representatives(demand: np.ndarray, speed: np.ndarray, count: int = PILOT_CASES
-                    ) -> np.ndarray:
-    """Indices of the cases that climb the ladders for all: ``count`` cases evenly spaced in
-    the order of (demand, speed), both ends included, so the most and the least demanding
-    case and the fastest of the most demanding are among them.
-
-    Parameters
-    ----------
-    demand : numpy.ndarray
-        Steps per revolution each case's first mode needs to be resolved (0 when it cannot be
-        excited), shape (case,).
-    speed : numpy.ndarray
-        Input speed of each case, rad/s, shape (case,).
-    count : int, optional
-        Cases to choose (all when there are no more).
-
-    Returns
-    -------
-    numpy.ndarray
-        Sorted indices, int.
-    """
-    n = len(demand)
-    if n <= count:
-        return np.arange(n)
-    order = np.lexsort((np.asarray(speed, float), np.asarray(demand, float)))
-    picks = np.unique(np.round(np.linspace(0, n - 1, count)).astype(int))
-    return np.sort(order[picks])
-
-
-def _climb(work: list[dict], solve: Callable, known: list[dict[int, float]],
-           resolved_at: np.ndarray, budget: list[float]) -> list[tuple]:
-    """The time ladder, then the space ladder at the coarsest time rung within the tolerance,
-    of each scene (batched across them): per scene (space, time, space_steps), space and time
-    (levels, errors) as :func:`choose` takes them."""
-    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
-
-    def time_done(j: int, peaks: list[float]) -> bool:
-        steps = FIRST_STEPS << (len(peaks) - 1)
-        return (len(peaks) >= 3 and steps >= resolved_at[j]
-                and ladder_errors(peaks)[-1] <= budget[j])
-
-    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
-                                                 [FIRST_STEPS << r] * len(work)),
-                         time_done, n_time, known)
-    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
-    time_errors = [ladder_errors(p) for p in time_peaks]
-
-    space_steps = []
-    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
-        within = np.flatnonzero(errors <= work[j]["tolerance"])
-        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
-    rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
-    at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
-    known_x = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
-               for peaks, steps in zip(time_peaks, space_steps)]
-
-    def space_done(j: int, peaks: list[float]) -> bool:
-        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
-
-    space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
-                          space_done, len(rungs_x), known_x)
-    return [((np.array(rungs_x[:len(sp)], float), ladder_errors(sp, order=2.0)),
-             (levels, errors), steps)
-            for sp, levels, errors, steps in zip(space_peaks, time_levels, time_errors,
-                                                 space_steps)]
-
-
 def _flexible_links(scene: dict) -> int:
     return sum(bool(link["flexible"]) for link in scene["links"].values())
 
@@ -403,52 +330,74 @@ def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[di
     # The time ladder must resolve a mode the crank harmonics can excite (ω₁h ≤ 1/2).
     excited = omega1 <= RESONANT_HARMONICS * speed
     resolved_at = np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0)
-    pilots = representatives(resolved_at, speed)
-    ladders = _climb([work[j] for j in pilots], solve, [known[j] for j in pilots],
-                     resolved_at[pilots], [budget[j] for j in pilots])
-    choices = []
-    for j, (space, time, space_steps) in zip(pilots, ladders):
-        scene = work[j]
+    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
+
+    def time_done(j: int, peaks: list[float]) -> bool:
+        steps = FIRST_STEPS << (len(peaks) - 1)
+        return (len(peaks) >= 3 and steps >= resolved_at[j]
+                and ladder_errors(peaks)[-1] <= budget[j])
+
+    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
+                                                 [FIRST_STEPS << r] * len(work)),
+                         time_done, n_time, known)
+    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
+    time_errors = [ladder_errors(p) for p in time_peaks]
+
+    # Stage 2: the space ladder at the coarsest rung within the tolerance (else the finest).
+    space_steps = []
+    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
+        within = np.flatnonzero(errors <= work[j]["tolerance"])
+        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
+    rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
+    at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
+    known = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
+             for peaks, steps in zip(time_peaks, space_steps)]
+
+    def space_done(j: int, peaks: list[float]) -> bool:
+        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
+
+    space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
+                          space_done, len(rungs_x), known)
+
+    choices, ladders = [], []
+    for j, i in enumerate(auto):
+        scene = scenes[i]
+        space = (np.array(rungs_x[:len(space_peaks[j])], float),
+                 ladder_errors(space_peaks[j], order=2.0))
+        time = (time_levels[j], time_errors[j])
         elements, steps, predicted, full = choose(
             space, time, scene["tolerance"], scene["time"]["revolutions"],
             _flexible_links(scene))
         choices.append((elements, steps))
-        reports[auto[j]] = {
+        ladders.append((space, time))
+        reports[i] = {
             "own_choice": [elements, steps], "own_predicted_error": predicted,
+            "tolerance": scene["tolerance"],
             "time_ladder": [[int(n), float(e)] for n, e in zip(*time)],
             "space_ladder": [[int(n), float(e)] for n, e in zip(*space)],
-            "space_ladder_steps_per_revolution": space_steps}
-    # One discretization for the call, the most demanding pilot's: the cases then share one
-    # time grid (a dataset has one step dimension) and batch together.
+            "space_ladder_steps_per_revolution": space_steps[j],
+            "first_frequency": float(omega1[j]) / (2.0 * math.pi)}
+    # One discretization for the call, the most demanding case's: the cases then share one
+    # time grid (a dataset has one step dimension) and batch together; every case meets its
+    # tolerance with it.
     elements = max(e for e, _ in choices)
     steps = max(s for _, s in choices)
     flexible = max(_flexible_links(scenes[i]) for i in auto)
     revolutions = max(scenes[i]["time"]["revolutions"] for i in auto)
     modes = 0 if bool(cost(elements, steps, revolutions, flexible)[1]) else MODES
-    pilot_cases = [int(auto[j]) for j in pilots]
-    climbed = dict(zip(pilots.tolist(), ladders))
     out = list(scenes)
-    for j, i in enumerate(auto):
+    for (space, time), i in zip(ladders, auto):
+        # The case's predicted error at the shared setting: its error estimate (the ladders
+        # are its companions, ``ced.simulation.simulate``).
+        predicted = float(predicted_error(space, time, elements, steps))
+        reports[i].update(predicted_error=predicted,
+                          tolerance_met=bool(predicted <= scenes[i]["tolerance"]))
         chosen = copy.deepcopy(scenes[i])
         chosen["discretization"] = {"formulation": "euler_bernoulli",
                                     "elements_per_link": elements, "elements_across": 2,
                                     "modes_per_link": modes}
         chosen["time"]["steps_per_revolution"] = steps
-        report = reports[i]
-        report.update(tolerance=scenes[i]["tolerance"], pilot_cases=pilot_cases,
-                      first_frequency=float(omega1[j]) / (2.0 * math.pi),
-                      elements_per_link=elements, steps_per_revolution=steps,
-                      modes_per_link=modes, formulation="euler_bernoulli")
-        if j in climbed:
-            # The pilot's predicted error at the shared setting: its error estimate (the
-            # ladders are its companions, ``ced.simulation.simulate``).
-            space, time, _ = climbed[j]
-            predicted = float(predicted_error(space, time, elements, steps))
-            report.update(predicted_error=predicted,
-                          tolerance_met=bool(predicted <= scenes[i]["tolerance"]))
-        else:
-            # Not climbed: its own error estimate checks it (always computed for it).
-            report.update(own_choice=None, predicted_error=None, tolerance_met=None)
-            chosen["outputs"]["error_estimate"] = True
         out[i] = chosen
+        reports[i].update(elements_per_link=elements, steps_per_revolution=steps,
+                          modes_per_link=modes, formulation="euler_bernoulli")
     return out, reports

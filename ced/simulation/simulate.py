@@ -331,10 +331,11 @@ def simulate(scenes) -> xr.Dataset:
         normalized = [scene for scene, _ in resolved]
         auto_reports = [json.dumps(report, sort_keys=True) if report else "" for _, report in
                         resolved]
-    auto_discretization = any(s["discretization"] == "auto" for s in normalized)
+    auto_discretization = None
     reports: list[dict] = [{} for _ in normalized]
-    if auto_discretization:
+    if any(s["discretization"] == "auto" for s in normalized):
         normalized, reports = resolve_discretization(normalized, _peaks)
+        auto_discretization = [json.dumps(r, sort_keys=True) if r else "" for r in reports]
     kinds = {s["mechanism"]["type"] for s in normalized}
     if len(kinds) > 1:
         raise SceneError("mechanism.type", f"the scenes of one run must share it (one "
@@ -367,16 +368,9 @@ def simulate(scenes) -> xr.Dataset:
             lambda: _first_frequency(solved, data, order),
             np.concatenate([b.step_size for b in batches])[order],
             lambda companions: _peaks(companions, keep_going=True)["peak"],
-            known={i: r["predicted_error"] for i, r in enumerate(reports)
-                   if r and r["predicted_error"] is not None})
-    if auto_discretization:
-        for i, r in enumerate(reports):
-            if r and r["predicted_error"] is None:  # not a pilot: its own estimate checks it
-                estimate = float(data["error_estimate"][i])
-                r.update(predicted_error=estimate if np.isfinite(estimate) else None,
-                         tolerance_met=bool(estimate <= r["tolerance"]))
-        data["discretization_auto"] = np.array(
-            [json.dumps(r, sort_keys=True) if r else "" for r in reports], dtype=object)
+            known={i: r["predicted_error"] for i, r in enumerate(reports) if r})
+    if auto_discretization is not None:
+        data["discretization_auto"] = np.array(auto_discretization, dtype=object)
         unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])
         data["status"] = np.where(unmet, data["status"] | STATUS_FLAGS["tolerance_unmet"],
                                   data["status"]).astype(data["status"].dtype)

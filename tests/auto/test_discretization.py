@@ -8,9 +8,8 @@ import yaml
 from hypothesis import given, settings, strategies as st
 
 from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, MAX_LADDER_STEPS, MODES,
-                                     PILOT_CASES, RESONANT_HARMONICS, SAFETY, choose, cost,
-                                     interpolate, ladder_errors, predicted_error,
-                                     representatives, resolve_discretization)
+                                     RESONANT_HARMONICS, SAFETY, choose, cost, interpolate,
+                                     ladder_errors, predicted_error, resolve_discretization)
 from ced.problem.scene import load_scene
 from ced.simulation.simulate import simulate
 
@@ -200,57 +199,3 @@ def test_several_auto_scenes_share_the_most_demanding_discretization():
     assert choices[0]["steps_per_revolution"] == choices[1]["steps_per_revolution"] == max(
         s for _, s in own)
     assert choices[0]["elements_per_link"] == max(e for e, _ in own)
-
-
-@settings(max_examples=40, deadline=None)
-@given(n=st.integers(1, 40), seed=st.integers(0, 2**31 - 1))
-def test_representatives_span_the_demand(n, seed):
-    rng = np.random.default_rng(seed)
-    demand = rng.choice([0.0, 100.0, 250.0], n)
-    speed = rng.uniform(50, 400, n)
-    picked = representatives(demand, speed)
-    assert len(picked) == min(n, PILOT_CASES) and len(set(picked.tolist())) == len(picked)
-    # The most demanding case (the fastest among them) and the least demanding are pilots.
-    order = np.lexsort((speed, demand))
-    assert order[-1] in picked and order[0] in picked
-
-
-def test_only_the_pilots_climb_the_ladders_and_the_others_are_left_to_their_estimate():
-    speeds = np.linspace(90.0, 110.0, 10)
-    scenes = [load_scene(reference_raw(discretization="auto", drive={"speed": float(v)}))
-              for v in speeds]
-    log = []
-    chosen, reports = resolve_discretization(
-        scenes, fake_solver(lambda ne, spr: 1.0 + 0.3 / ne**3 - 20.0 / spr**2, 1e9, log))
-    # Every case solves the first rung; only the pilots go further.
-    first = (8, FIRST_STEPS)
-    assert log.count(first) >= len(scenes)
-    climbed = [r for r in reports if r["own_choice"] is not None]
-    assert len(climbed) == PILOT_CASES
-    assert all(r["pilot_cases"] == reports[0]["pilot_cases"] for r in reports)
-    for r, scene in zip(reports, chosen):
-        assert scene["discretization"]["elements_per_link"] == r["elements_per_link"]
-        if r["own_choice"] is None:  # checked later by its own error estimate
-            assert r["predicted_error"] is None and scene["outputs"]["error_estimate"]
-        else:
-            assert r["tolerance_met"] and r["predicted_error"] <= r["tolerance"]
-    # The pilots' ladders cost no more than a call with PILOT_CASES cases.
-    alone = []
-    resolve_discretization(scenes[:PILOT_CASES],
-                           fake_solver(lambda ne, spr: 1.0 + 0.3 / ne**3 - 20.0 / spr**2,
-                                       1e9, alone))
-    assert len(log) - len(scenes) == len(alone) - PILOT_CASES
-
-
-def test_a_case_that_did_not_climb_is_checked_by_its_estimate():
-    raw = reference_raw(discretization="auto", tolerance=1e-2)
-    scenes = [{**raw, "drive": {"speed": float(v)}} for v in (90.0, 95.0, 100.0, 105.0, 110.0)]
-    ds = simulate(scenes)
-    reports = [json.loads(str(v)) for v in ds.discretization_auto.values]
-    others = [i for i, r in enumerate(reports) if r["own_choice"] is None]
-    assert len(others) == len(scenes) - PILOT_CASES
-    for i in others:
-        r = reports[i]
-        assert r["predicted_error"] == pytest.approx(float(ds.error_estimate[i]))
-        assert r["tolerance_met"] == (r["predicted_error"] <= 1e-2)
-        assert bool(int(ds.status[i]) & 128) == (not r["tolerance_met"])
