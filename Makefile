@@ -45,6 +45,7 @@ reference: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/estimate_check.py --cores $(CORES)
+	@if [ -d results/default/benchmarks ]; then $(BIN)/python benchmarks/study_stages.py; fi
 
 # Long, needs root: a single-node SLURM on this machine (apt-get slurm-wlm munge), the executor
 # plugin pip-installed into .venv, the test study through workflow/profiles/slurm vs. locally.

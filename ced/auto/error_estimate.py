@@ -20,9 +20,12 @@ Richardson's argument needs both solutions in the asymptotic range. Halving the 
 it when the companion would have fewer than :data:`MIN_COMPANION_STEPS` steps per revolution
 (the crank harmonics that carry the load are then under-resolved) or when its ω₁h would cross
 1 while the scene's is below π (the first mode neither resolved nor quasi-static; a strongly
-dissipative scheme such as Houbolt is far from its limit there). The steps are then doubled
-instead (:func:`coarsening_allowed`), at about three times the cost of the scene's solution;
-so is a mesh of four elements or fewer refined rather than coarsened.
+dissipative scheme such as Houbolt is far from its limit there). The step is then coarsened
+by less than 2, as far as ω₁h may grow to 1 (at least by :data:`MIN_COARSENING`, the mesh
+coarsened to match: one companion still, cheaper than the scene's solution), and where even
+that is not possible the steps are doubled instead (:func:`coarser_steps`), at about three
+times the cost of the scene's solution; so is a mesh of four elements or fewer refined
+rather than coarsened.
 Measured on the convergence study (``config/studies/convergence.yaml``, issue 6): see
 ``docs/accuracy.md``.
 
@@ -44,8 +47,9 @@ import numpy as np
 
 from ..response.integrators import amplification_matrix, integrator_for
 
-__all__ = ["Companion", "companions", "coarsening_allowed", "algorithmic_damping", "combine",
-           "error_estimates", "MIN_COMPANION_STEPS", "SPACE_ORDER", "TIME_ORDER", "SAFETY"]
+__all__ = ["Companion", "companions", "coarser_steps", "algorithmic_damping", "combine",
+           "error_estimates", "MIN_COMPANION_STEPS", "MIN_COARSENING", "SPACE_ORDER",
+           "TIME_ORDER", "SAFETY"]
 
 #: Convergence order of peak stress in the element length, per formulation. The beams'
 #: curvature is read at its superconvergent points (O(h³), ced.fem.elements.link.
@@ -104,21 +108,40 @@ DISSIPATIVE_OMEGA_H = 0.5
 MAX_COMPANION_OMEGA_H = 1.0
 
 
-def coarsening_allowed(steps: int, omega1_h: float) -> bool:
-    """Whether a companion with half of ``steps`` per revolution stays in the asymptotic range.
+#: Smallest step ratio of a coarser companion: below, the difference to it is too small a
+#: multiple of the scene's error (Richardson's factor SAFETY / (1.25² − 1) = 7.1 already).
+MIN_COARSENING = 1.25
+
+
+def coarser_steps(steps: int, revolutions: float, omega1_h: float) -> int | None:
+    """Steps per revolution of a coarser companion that stays in the asymptotic range, or None.
+
+    Halved where that keeps the first mode resolved (companion ω₁h ≤
+    :data:`MAX_COMPANION_OMEGA_H`) or quasi-static (the scene's ω₁h ≥ π); otherwise coarsened
+    by less, as far as ω₁h may grow (at least by :data:`MIN_COARSENING`). Never below
+    :data:`MIN_COMPANION_STEPS`, and a whole number of steps over the scene's revolutions.
 
     Parameters
     ----------
     steps : int
         The scene's steps per revolution.
+    revolutions : float
+        The scene's revolutions.
     omega1_h : float
         First natural frequency × the scene's step, rad per step (0 if unknown).
+
+    Returns
+    -------
+    int or None
     """
-    if steps // 2 < MIN_COMPANION_STEPS:
-        return False
-    # A mode beyond π per step is quasi-static at both step sizes; otherwise it must stay
-    # resolved at the doubled step.
-    return omega1_h >= math.pi or 2.0 * omega1_h <= MAX_COMPANION_OMEGA_H
+    if omega1_h >= math.pi or omega1_h <= 0.0:
+        ratio = 2.0
+    else:  # a mode beyond π per step is quasi-static at both step sizes; else it stays resolved
+        ratio = min(2.0, MAX_COMPANION_OMEGA_H / omega1_h)
+    coarse = max(math.ceil(steps / ratio - 1e-9), MIN_COMPANION_STEPS)
+    while coarse * revolutions % 1 != 0:
+        coarse += 1
+    return coarse if coarse * MIN_COARSENING <= steps else None
 
 
 def algorithmic_damping(time_cfg: dict, omega_h: float) -> float:
@@ -165,16 +188,18 @@ def _refinement(time_cfg: dict, omega1_h: float) -> int:
 def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
     """Companion discretizations of a normalized scene with an elastic formulation.
 
-    Normally one coarser companion: steps halved, elements reduced so that the space error
-    grows about as much as the time error (4×). Then the difference to the companion is about
-    three times the scene's own error whatever the signs of the two parts, and no cancellation
-    between them can hide in it; the smaller of the two growths sets Richardson's factor,
-    which keeps the estimate conservative when they differ. Where halving the step would leave
-    the asymptotic range (:func:`coarsening_allowed`), two companions instead: the mesh
-    coarsened at the scene's steps, and the steps doubled (up to 8×, for a dissipative scheme
-    that does not resolve ω₁, :func:`_refinement`) on the scene's mesh — about three times the
-    cost of the scene's own solution; their two estimates are added. Modes per link
-    are kept; the companions make no modal analysis.
+    Normally one coarser companion: steps halved (or coarsened by less where halving would
+    leave the asymptotic range, :func:`coarser_steps`), elements reduced so that the space
+    error grows about as much as the time error (4× when halved). Then the difference to the
+    companion is a known multiple of the scene's own error whatever the signs of the two
+    parts, and no cancellation between them can hide in it; the smaller of the two growths
+    sets Richardson's factor, which keeps the estimate conservative when they differ. Where no
+    coarser step stays in the asymptotic range, or the mesh cannot be coarsened, two companions
+    instead: the mesh coarsened (or refined) at the scene's steps, and the steps coarsened
+    where possible, else doubled (up to 8×, for a dissipative scheme that does not resolve
+    ω₁, :func:`_refinement`) on the scene's mesh — about three times the cost of the scene's
+    own solution; their two estimates are added. Modes per link are kept; the companions make
+    no modal analysis.
 
     Parameters
     ----------
@@ -203,16 +228,17 @@ def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
         out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
         return out
 
-    halve = coarsening_allowed(spr, omega1_h) and (spr // 2) * time["revolutions"] % 1 == 0
-    coarse = _elements_for_growth(ne, order, 4.0)
-    if halve and coarse is not None:
-        growth = min((ne / coarse) ** order, 4.0)
-        return [Companion(variant(coarse, spr // 2), _factor(growth))]
+    coarse_steps = coarser_steps(spr, time["revolutions"], omega1_h)
+    time_growth = (spr / coarse_steps) ** TIME_ORDER if coarse_steps else 4.0
+    coarse = _elements_for_growth(ne, order, time_growth)
+    if coarse_steps and coarse is not None:
+        growth = min((ne / coarse) ** order, time_growth)
+        return [Companion(variant(coarse, coarse_steps), _factor(growth))]
     # Separately: the mesh coarsened (or, from four elements or fewer, refined) at the scene's
-    # steps, and the steps halved (or refined) on the scene's mesh. Each part is estimated on
-    # its own and the parts are added, so they cannot cancel in the estimate.
+    # steps, and the steps coarsened (or refined) on the scene's mesh. Each part is estimated
+    # on its own and the parts are added, so they cannot cancel in the estimate.
     space = coarse if coarse is not None else 2 * ne
-    steps = spr // 2 if halve else spr * _refinement(time, omega1_h)
+    steps = coarse_steps or spr * _refinement(time, omega1_h)
     return [Companion(variant(space, spr), _factor((ne / space) ** order)),
             Companion(variant(ne, steps), _factor((spr / steps) ** TIME_ORDER))]
 

@@ -23,7 +23,7 @@ from .integrators import from_independent, integrator_for, stability_limit, star
 from .kernels import expand, static_period
 from .marching import Marcher
 from .model import Model, build_model, terms_at
-from .period_terms import PeriodTerms, period_terms
+from .period_terms import PeriodTerms, interpolate_periodic, period_terms
 from .periodic import INSTABILITY_MARGIN, shoot
 from .resonance import forced_resonance
 
@@ -83,12 +83,12 @@ def elastic_response(batch: Batch, status: np.ndarray,
     status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
-    qz, qz_static = _response(model, status, result, full=not peaks_only)
+    qz, qz_static, period = _response(model, status, result, full=not peaks_only)
     result.update(_recover(model, qz, qz_static, fields=not peaks_only))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
     if not peaks_only:
-        status[forced_resonance(model)] |= STATUS_FLAGS["resonant"]
+        status[forced_resonance(model, period)] |= STATUS_FLAGS["resonant"]
     modal = scene.get("modal")
     if modal and model.layout.ny:
         freq = cycle_frequencies(model, modal_phases(modal["angles"]), modal["modes"])
@@ -105,7 +105,8 @@ def elastic_response(batch: Batch, status: np.ndarray,
 
 def _response(model: Model, status: np.ndarray, result: dict, full: bool = True):
     """Joint and link displacements z at the output steps, dynamic and quasi-static
-    (case, out_step, nz); adds the Floquet results of a periodic start to ``result``.
+    (case, out_step, nz), and the terms over one period (None without elastic DOFs); adds the
+    Floquet results of a periodic start to ``result``.
     Without ``full``, neither the quasi-static response (None, unless the model is
     quasi-static) nor the Floquet analysis.
 
@@ -119,7 +120,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     out_steps = np.arange(0, n_steps + 1, every)
     qz = np.zeros((ncase, len(out_steps), layout.nz))
     if not ny:
-        return qz, qz.copy()
+        return qz, qz.copy(), None
     time_cfg = scene["time"]
     # Near a change point or toggle the terms have features narrower than any sampling can
     # see between its samples: a batch holding such a case evaluates every step.
@@ -131,7 +132,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         qz_static = _expand(layout, period, _static(period)[:, out_steps % period.period],
                             out_steps)
     if quasi_static:
-        return qz_static, qz_static
+        return qz_static, qz_static, period
     scheme = integrator_for(time_cfg)
     _check_stable_step(model, stability_limit(scheme))
     marcher = Marcher(scheme, period, h)
@@ -151,14 +152,28 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
             q0, v0 = _quasi_static_start(model, h)
         state = start(terms, q0, v0)
     _, record = marcher.march(state, n_steps, every)
-    return _expand(layout, period, record, out_steps), qz_static
+    return _expand(layout, period, record, out_steps), qz_static, period
 
 
 def _static(period: PeriodTerms) -> np.ndarray:
-    """Quasi-static response K y = F at every step of the period (case, P, ny)."""
-    y = np.empty(period.force.shape)
+    """Quasi-static response K y = F at every step of the period (case, P, ny).
+
+    Where the terms were sampled, y is solved at the samples and interpolated like them
+    (smooth and periodic as they are; the interpolation error checked the same way), else
+    at every step."""
+    if period.sampled is not None:
+        y = interpolate_periodic(_solve_static(period.sampled["stiffness"],
+                                               period.sampled["force"]), period.period)
+        if y is not None:
+            return y
+    return _solve_static(period.stiffness, period.force)
+
+
+def _solve_static(K: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """K y = F for every (case, phase): K (case, m, n, n), F (case, m, n) → y (case, m, n)."""
+    y = np.empty(F.shape)
     ok = np.ones(len(y), bool)
-    static_period(period.stiffness, period.force, y, ok)
+    static_period(np.ascontiguousarray(K), np.ascontiguousarray(F), y, ok)
     if not ok.all():  # as numpy's solve would: the batch is re-run case by case
         raise np.linalg.LinAlgError(
             f"Singular matrix: the stiffness of case {int(np.argmax(~ok))}")

@@ -19,90 +19,13 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+# The LU of one small system lives with the rigid layer's batched solver (below this layer).
+from ..rigid.small_systems import lu_factor, lu_solve
+
 __all__ = ["lu_factor", "lu_solve", "lu_solve_columns", "newmark_march", "static_period",
            "expand"]
 
 _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
-
-
-@nb.njit(**_JIT)
-def lu_factor(A: np.ndarray, piv: np.ndarray) -> bool:
-    """LU with partial pivoting of the square A (n, n) in place (L unit lower, U upper, as
-    LAPACK getrf); ``piv[k]`` the row swapped with row k. Returns False if a pivot is zero or
-    not finite (singular or corrupted matrix).
-
-    Parameters
-    ----------
-    A : numpy.ndarray
-        Square matrix (n, n), float64, overwritten by its L and U factors.
-    piv : numpy.ndarray
-        Pivot indices (n,), int64, filled.
-
-    Returns
-    -------
-    bool
-        True when the factorization succeeded.
-    """
-    n = A.shape[0]
-    for k in range(n):
-        p = k
-        big = abs(A[k, k])
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > big:
-                big = abs(A[i, k])
-                p = i
-        piv[k] = p
-        if not (big > 0.0 and big < np.inf):
-            return False
-        if p != k:
-            for j in range(n):
-                t = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = t
-        inv = 1.0 / A[k, k]
-        pivot_row = A[k]
-        for i in range(k + 1, n):
-            f = A[i, k] * inv
-            A[i, k] = f
-            row = A[i]
-            for j in range(k + 1, n):
-                row[j] -= f * pivot_row[j]
-    return True
-
-
-@nb.njit(**_JIT)
-def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
-    """Solve A x = b in place for one right-hand side x (n,), given A's :func:`lu_factor`.
-
-    Parameters
-    ----------
-    LU : numpy.ndarray
-        The factors (n, n) from :func:`lu_factor`.
-    piv : numpy.ndarray
-        The pivot indices (n,) from :func:`lu_factor`.
-    x : numpy.ndarray
-        The right-hand side b (n,), overwritten by the solution.
-    """
-    # Kept apart from lu_solve_columns on purpose: that one's inner loops run along the columns
-    # (4x faster than dot products for the shooting's 61 columns, measured), which with one
-    # column are loops of length 1; here the inner loops are dot products along the row.
-    n = x.shape[0]
-    for k in range(n):
-        p = piv[k]
-        if p != k:
-            t = x[k]
-            x[k] = x[p]
-            x[p] = t
-    for i in range(n):
-        t = x[i]
-        for k in range(i):
-            t -= LU[i, k] * x[k]
-        x[i] = t
-    for i in range(n - 1, -1, -1):
-        t = x[i]
-        for k in range(i + 1, n):
-            t -= LU[i, k] * x[k]
-        x[i] = t / LU[i, i]
 
 
 @nb.njit(**_JIT)

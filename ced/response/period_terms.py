@@ -28,8 +28,8 @@ import numpy as np
 
 from .model import Model, terms_at
 
-__all__ = ["PeriodTerms", "period_terms", "interpolation_weights", "SAMPLES", "TOLERANCE",
-           "STENCIL"]
+__all__ = ["PeriodTerms", "period_terms", "interpolate_periodic", "interpolation_weights",
+           "SAMPLES", "TOLERANCE", "STENCIL"]
 
 #: Samples per period to start from (doubled until the interpolation error is small enough).
 SAMPLES = 64
@@ -51,7 +51,10 @@ class PeriodTerms:
 
     ``mass`` or ``damping`` is None where the effects do not form it. Step k uses index
     k mod P. ``samples`` is the number of terms evaluations per period (P when exact) and
-    ``interpolation_error`` the estimate per case (0 when exact).
+    ``interpolation_error`` the estimate per case (0 when exact). ``sampled`` holds the
+    terms at the samples (case, samples, …) when they were interpolated (None when exact):
+    other periodic quantities derived from the terms are interpolated from them
+    (:func:`interpolate_periodic`).
     """
 
     mass: np.ndarray | None
@@ -61,6 +64,7 @@ class PeriodTerms:
     projection: np.ndarray
     samples: int
     interpolation_error: np.ndarray
+    sampled: dict | None = None
 
     @property
     def period(self) -> int:
@@ -220,7 +224,7 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
             if (estimate <= tolerance).all():
                 return PeriodTerms(**_with_none(_interpolate_terms(
                     values, np.arange(period) * (n / period), n)), samples=n,
-                    interpolation_error=estimate)
+                    interpolation_error=estimate, sampled=values)
             if 4 * n > period:
                 break  # as many samples as steps: evaluate every step
             middle = _evaluate(model, h, (np.arange(n) + 0.5) * (period / n))
@@ -238,6 +242,35 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                                interpolation_error=np.zeros(ncase))
     values = _evaluate(model, h, np.arange(period, dtype=float))
     return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase))
+
+
+def interpolate_periodic(values: np.ndarray, period: int,
+                         tolerance: float = TOLERANCE) -> np.ndarray | None:
+    """A periodic quantity at every step of the period from its values at the samples, or
+    None where the interpolation is not accurate to ``tolerance`` (checked as for the terms:
+    the even half of the samples interpolates the odd half).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        The quantity at ``samples`` equally spaced phases, shape (case, samples, …).
+    period : int
+        Steps per period P.
+    tolerance : float, optional
+        Estimated interpolation error allowed, relative to the quantity's largest entry in
+        each case.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        Shape (case, P, …).
+    """
+    n = values.shape[1]
+    half = _interpolate_terms({"x": values[:, 0::2]}, np.arange(n // 2) + 0.5, n // 2)
+    estimate = _relative_error(half, {"x": values[:, 1::2]}) / _HALVING_GAIN
+    if not (estimate <= tolerance).all():
+        return None
+    return _interpolate_terms({"x": values}, np.arange(period) * (n / period), n)["x"]
 
 
 def _with_none(parts: dict[str, np.ndarray]) -> dict:

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..fem.eigenproblem import natural_frequencies
 from .model import Model, terms_at
+from .period_terms import PeriodTerms
 
 __all__ = ["cycle_modes", "forced_resonance", "SAMPLES", "HARMONICS", "MODES", "ZETA_FLOOR"]
 
@@ -47,7 +48,8 @@ ZETA_FLOOR = 0.005
 _BLOCK_BYTES = 50e6
 
 
-def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES):
+def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES,
+                period: PeriodTerms | None = None):
     """Frozen modes over one input period and the load they carry.
 
     Parameters
@@ -58,6 +60,11 @@ def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES):
         Number of modes (at most ny).
     samples : int, optional
         Number of phases sampled over the period.
+    period : PeriodTerms, optional
+        The batch's terms over one period of its step grid: where its steps hold the sample
+        phases and its mass, stiffness and load are those of the frozen system (as they are with
+        ``elastic_inertia``: velocity terms only enter the damping), they are taken from it
+        instead of being evaluated again.
 
     Returns
     -------
@@ -77,23 +84,37 @@ def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES):
     frequency = np.empty((ncase, samples, modes))
     load = np.empty((ncase, samples, modes))
     previous = None
+    stride = _sample_stride(period, samples)
     for start in range(0, samples, block):
-        terms, _ = terms_at(model, times[:, start:start + block], effects,
-                            frozenset({"elastic_mass"}))
-        mass = terms.elastic_mass
-        f, shapes = natural_frequencies(terms.stiffness, mass, modes, shapes=True)
+        if stride:
+            steps = stride * np.arange(start, min(start + block, samples))
+            mass, stiffness, force = (x[:, steps] for x in
+                                      (period.mass, period.stiffness, period.force))
+        else:
+            terms, _ = terms_at(model, times[:, start:start + block], effects,
+                                frozenset({"elastic_mass"}))
+            mass, stiffness, force = terms.elastic_mass, terms.stiffness, terms.force
+        f, shapes = natural_frequencies(stiffness, mass, modes, shapes=True)
         for j in range(shapes.shape[1]):  # eigenvectors come with arbitrary signs: follow
             if previous is not None:      # each mode from sample to sample
                 overlap = np.einsum("cni,cnm,cmi->ci", shapes[:, j], mass[:, j], previous)
                 shapes[:, j] *= np.where(overlap < 0.0, -1.0, 1.0)[:, None, :]
             previous = shapes[:, j]
         frequency[:, start:start + block] = f
-        load[:, start:start + block] = np.einsum("ctni,ctn->cti", shapes, terms.force)
+        load[:, start:start + block] = np.einsum("ctni,ctn->cti", shapes, force)
     spectrum = np.abs(np.fft.rfft(load, axis=1))
     spectrum[:, 1:] *= 2.0  # one-sided amplitudes
     total = spectrum.sum(axis=1, keepdims=True)
     share = np.divide(spectrum, total, out=np.zeros_like(spectrum), where=total > 0)
     return 2.0 * math.pi * frequency, share
+
+
+def _sample_stride(period: PeriodTerms | None, samples: int) -> int:
+    """Steps between the sample phases on the period's step grid, or 0 where the period's
+    terms cannot stand for the frozen system's there (no mass, or samples off the grid)."""
+    if period is None or period.mass is None or period.period % samples:
+        return 0
+    return period.period // samples
 
 
 def _damping_ratio(model: Model, omega: np.ndarray) -> np.ndarray:
@@ -107,7 +128,7 @@ def _damping_ratio(model: Model, omega: np.ndarray) -> np.ndarray:
     return damping["alpha"] / (2.0 * w) + damping["beta"] * w / 2.0
 
 
-def forced_resonance(model: Model) -> np.ndarray:
+def forced_resonance(model: Model, period: PeriodTerms | None = None) -> np.ndarray:
     """(case,) bool: some harmonic k ≤ :data:`HARMONICS` lies in some mode's band and carries
     load enough to dominate it, eq. (1) of the module docstring.
 
@@ -115,6 +136,8 @@ def forced_resonance(model: Model) -> np.ndarray:
     ----------
     model : Model
         The batch's model (input speed Ω in rad/s, effects, damping).
+    period : PeriodTerms, optional
+        The batch's terms over one period (:func:`cycle_modes`).
 
     Returns
     -------
@@ -123,7 +146,7 @@ def forced_resonance(model: Model) -> np.ndarray:
     """
     if model.layout.ny == 0:
         return np.zeros(model.batch.size, bool)
-    omega, share = cycle_modes(model)
+    omega, share = cycle_modes(model, period=period)
     low, high = omega.min(axis=1), omega.max(axis=1)  # (case, mode)
     zeta = _damping_ratio(model, 0.5 * (low + high))
     k = np.arange(1, HARMONICS + 1)[None, :, None]

@@ -18,6 +18,7 @@ import numpy as np
 
 from .dyads import point_motion
 from .kinematics import RigidMotion
+from .small_systems import solve_batch
 
 __all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate"]
 
@@ -181,11 +182,10 @@ def _solve_regular(A: np.ndarray, b: np.ndarray, singular: np.ndarray) -> np.nda
     continuous through the configuration on the smooth branch, so they are interpolated from
     the regular neighbours, as the velocities are (:mod:`ced.rigid.kinematics`).
     """
-    ratio = np.abs(np.linalg.det(A)) / np.prod(np.linalg.norm(A, axis=-1), axis=-1)
+    x, ratio = solve_batch(A, b)  # one compiled LU gives the solution and |det A|
     bad = np.asarray(singular, bool) | ~(ratio > SINGULAR_RATIO)
-    x = np.zeros(b.shape)
     good = ~bad
-    x[good] = np.linalg.solve(A[good], b[good][..., None])[..., 0]
+    x[bad] = 0.0
     if bad.any():
         steps = np.arange(b.shape[1])
         for c in np.flatnonzero(bad.any(axis=1)):

@@ -45,8 +45,8 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
     ``case`` axis, sampled every ``outputs.every`` steps. A batch larger than
     :func:`ced.simulation.size.cases_per_solve` is solved in parts. ``peaks_only`` is the
-    solve of a pilot or an error estimate's companion: the rigid results over one period and
-    the elastic peaks, without the histories
+    solve of a pilot or an error estimate's companion: the elastic peaks and the status,
+    without the rigid results (no inverse dynamics) and the histories
     (:func:`ced.response.elastic.elastic_response`).
 
     Parameters
@@ -54,7 +54,7 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     batch : Batch
         Structurally identical cases (:func:`ced.response.batch.make_batch`).
     peaks_only : bool, optional
-        Return the rigid results over one period and the elastic peaks only.
+        Return the elastic peaks and the status only.
 
     Returns
     -------
@@ -80,7 +80,10 @@ def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     if effects == "auto":
         raise ValueError("effects: auto must be resolved before solving "
                          "(ced.auto.effects.resolve_auto, as simulate does)")
-    out, singular = _rigid_outputs(batch, "inertia" in effects, one_period=peaks_only)
+    if peaks_only:  # a pilot or a companion: only the elastic peaks are read from it
+        out, singular = {}, _singular(batch)
+    else:
+        out, singular = _rigid_outputs(batch, "inertia" in effects)
     flags = np.zeros(batch.size, STATUS_DTYPE)
     flags[singular] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
@@ -92,10 +95,17 @@ def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     return out
 
 
-def _rigid_outputs(batch: Batch, inertia: bool,
-                   one_period: bool = False) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Rigid motion and inverse dynamics at the output steps (``one_period``: at every step of
-    the first period only), and the cases whose transmission is singular somewhere (case,).
+def _singular(batch: Batch) -> np.ndarray:
+    """(case,) bool: the transmission is singular at some step of the first period (the
+    rigid motion alone, without the inverse dynamics: what a peaks-only solve needs)."""
+    period = batch.scenes[0]["time"]["steps_per_revolution"]
+    solved = np.arange(min(batch.n_steps, period) + 1)
+    return batch.rigid_motion(batch.step_size[:, None] * solved[None, :]).singular.any(axis=1)
+
+
+def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Rigid motion and inverse dynamics at the output steps, and the cases whose
+    transmission is singular somewhere (case,).
 
     The motion repeats every input period (steps_per_revolution steps): it is solved over one
     period and repeated, the link angles advanced by the turns each link makes per period.
@@ -104,7 +114,7 @@ def _rigid_outputs(batch: Batch, inertia: bool,
     every = scene["outputs"]["every"]
     period = scene["time"]["steps_per_revolution"]
     solved = np.arange(min(batch.n_steps, period) + 1)
-    steps = solved if one_period else np.arange(0, batch.n_steps + 1, every)
+    steps = np.arange(0, batch.n_steps + 1, every)
     motion = batch.rigid_motion(batch.step_size[:, None] * solved[None, :])
     forces = inverse_dynamics(motion, batch.bodies, batch.gravity, inertia=inertia)
     if batch.n_steps <= period:  # every output step was solved
@@ -163,8 +173,8 @@ def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
         if result["status"][case] & STATUS_FLAGS["failed"]:
             continue  # already failed, with its own message
         result["status"][case] |= STATUS_FLAGS["failed"]
-        loads = max(float(np.max(np.abs(result[k][case])))
-                    for k in ("joint_force", "input_torque"))
+        loads = max((float(np.max(np.abs(result[k][case])))
+                     for k in ("joint_force", "input_torque") if k in result), default=0.0)
         if _RIGID & set(names) or loads > OVERFLOW_LOAD:
             cause = f"an input overflows: loads of {loads:.3g} N (N m) in the rigid analysis"
         else:
@@ -226,6 +236,18 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
             seconds = (_time.perf_counter() - start) / batch.size
             solved.append((batch, indices, result, (messages, seconds)))
     return solved
+
+
+def _in_order(parts: list[np.ndarray], solved: list[tuple]) -> np.ndarray:
+    """One variable of the solved groups in the caller's order of cases, copied once (not at
+    all when a single group holds the cases in order: the histories are most of the memory)."""
+    indices = [np.asarray(ix) for _, ix, _, _ in solved]
+    if len(parts) == 1 and np.array_equal(indices[0], np.arange(len(indices[0]))):
+        return parts[0]
+    out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:], parts[0].dtype)
+    for ix, part in zip(indices, parts):
+        out[ix] = part
+    return out
 
 
 def _case_peak(peak_stress: np.ndarray) -> np.ndarray:
@@ -335,7 +357,7 @@ def simulate(scenes) -> xr.Dataset:
     order = np.argsort(np.array(positions))
     results = [result for _, _, result, _ in solved]
     names = set.intersection(*(set(r) for r in results))
-    data = {name: np.concatenate([r[name] for r in results])[order] for name in names}
+    data = {name: _in_order([r[name] for r in results], solved) for name in names}
     data["solve_time"] = np.concatenate(
         [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]

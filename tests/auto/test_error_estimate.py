@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.auto.error_estimate import (SAFETY, algorithmic_damping, coarsening_allowed, combine,
-                                     companions)
+from ced.auto.error_estimate import (MIN_COARSENING, SAFETY, algorithmic_damping, coarser_steps,
+                                     combine, companions)
 from ced.problem.scene import load_scene
 from ced.simulation.simulate import simulate
 
@@ -29,10 +29,11 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     assert companion.factor == pytest.approx(SAFETY / 3.0)
 
 
-@pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.6), (256, 1.5)])
-def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omega1_h):
-    # Fewer than 64 steps in the companion, or ω₁h above 1 there while below π here.
-    assert not coarsening_allowed(steps, omega1_h)
+@pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.85), (256, 1.5)])
+def test_steps_are_refined_where_coarsening_leaves_the_asymptotic_range(steps, omega1_h):
+    # Fewer than 64 steps in the companion, or ω₁h above 1 there after coarsening by at least
+    # MIN_COARSENING while below π here.
+    assert coarser_steps(steps, 1, omega1_h) is None
     space, time = companions(load_scene(_scene(8, steps)), omega1_h)
     assert space.scene["discretization"]["elements_per_link"] == 4
     assert space.scene["time"]["steps_per_revolution"] == steps
@@ -43,8 +44,30 @@ def test_steps_are_refined_where_halving_leaves_the_asymptotic_range(steps, omeg
 
 def test_stiff_first_mode_allows_halving():
     # ω₁h ≥ π at both step sizes: the mode responds quasi-statically either way.
-    assert coarsening_allowed(256, 3.5)
-    assert coarsening_allowed(256, 0.4) and not coarsening_allowed(256, 0.6)
+    assert coarser_steps(256, 1, 3.5) == 128
+    assert coarser_steps(256, 1, 0.4) == 128 and coarser_steps(256, 1, 0.5) == 128
+
+
+@pytest.mark.parametrize("omega1_h", [0.55, 0.65, 0.78])
+def test_coarsening_by_less_than_two_keeps_the_first_mode_resolved(omega1_h):
+    steps = coarser_steps(256, 1, omega1_h)
+    assert 256 / 2 < steps <= 256 / MIN_COARSENING
+    assert omega1_h * 256 / steps <= 1.0 + 1e-12  # the companion's ω₁h
+    (companion,) = companions(load_scene(_scene(8, 256)), omega1_h)
+    assert companion.scene["time"]["steps_per_revolution"] == steps
+    # The mesh coarsened so that the space error grows about as the time error does, and
+    # Richardson's factor taken from the smaller growth.
+    growth_t = (256 / steps) ** 2
+    ne = companion.scene["discretization"]["elements_per_link"]
+    growth = min((8 / ne) ** 2, growth_t)
+    assert abs(np.log((8 / ne) ** 2 / growth_t)) < 0.4
+    assert companion.factor == pytest.approx(SAFETY / (growth - 1.0))
+
+
+def test_coarser_steps_span_whole_revolutions():
+    # 1.5 revolutions: the companion's steps times 1.5 must be a whole number.
+    steps = coarser_steps(256, 1.5, 0.7)
+    assert steps * 1.5 == int(steps * 1.5)
 
 
 @pytest.mark.parametrize("elements", [1, 2, 4])

@@ -8,8 +8,9 @@ from hypothesis import strategies as st
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
 from ced.response.model import build_model
-from ced.response.period_terms import (STENCIL, TOLERANCE, interpolation_weights,
-                                       period_terms)
+from ced.response.elastic import _solve_static, _static
+from ced.response.period_terms import (STENCIL, TOLERANCE, interpolate_periodic,
+                                       interpolation_weights, period_terms)
 
 FOUR_BAR = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                           "rocker": 0.35},
@@ -84,3 +85,28 @@ def test_failed_check_falls_back_to_every_step_reusing_the_samples():
     for name in ("mass", "damping", "stiffness", "force", "projection"):
         a, b = getattr(fallback, name), getattr(exact, name)
         assert np.allclose(a, b, rtol=1e-13, atol=1e-13 * np.abs(b).max()), name
+
+
+def test_periodic_quantity_interpolates_when_smooth_and_refuses_when_not():
+    samples, period = 64, 1024
+    phase = 2 * np.pi * np.arange(samples) / samples
+    smooth = np.stack([np.cos(phase), np.sin(3 * phase)], axis=-1)[None]  # (1, 64, 2)
+    out = interpolate_periodic(smooth, period)
+    fine = 2 * np.pi * np.arange(period) / period
+    assert np.abs(out - np.stack([np.cos(fine), np.sin(3 * fine)], axis=-1)).max() < TOLERANCE
+    rough = smooth.copy()
+    rough[0, 17, 0] += 1.0  # a feature narrower than the samples' spacing
+    assert interpolate_periodic(rough, period) is None
+
+
+def test_quasi_static_response_from_the_samples_matches_every_step():
+    steps = 1024
+    batch = make_batch([load_scene({**FOUR_BAR, "drive": {"speed": speed},
+                                    "time": {"steps_per_revolution": steps}})
+                        for speed in (50.0, 150.0)])
+    terms = period_terms(build_model(batch), batch.step_size, steps)
+    assert terms.sampled is not None
+    exact = _solve_static(terms.stiffness, terms.force)
+    sampled = _static(terms)
+    scale = np.abs(exact).max(axis=(1, 2))
+    assert (np.abs(sampled - exact).max(axis=(1, 2)) <= 10 * TOLERANCE * scale).all()

@@ -73,3 +73,21 @@ def test_damping_narrows_what_counts():
                                          "centrifugal", "axial_stiffening", "damping"],
                                 damping={"model": "modal", "ratio": 0.05}))
     assert resonant(undamped)[0] and not resonant(damped)[0]
+
+
+@pytest.mark.parametrize("steps", [128, 1024])  # terms at every step, and sampled
+def test_cycle_modes_from_the_period_terms_equal_a_fresh_evaluation(steps):
+    # With damping, Coriolis and gravity: none of them changes the frozen M, K and F.
+    from ced.response.period_terms import period_terms
+
+    raw = {**REFERENCE, "effects": ["inertia", "elastic_inertia", "gravity", "coriolis",
+                                    "centrifugal", "axial_stiffening", "damping"],
+           "damping": {"model": "rayleigh", "alpha": 1.0, "beta": 1e-5},
+           "time": {"steps_per_revolution": steps}}
+    batch = make_batch([load_scene({**raw, "drive": {"speed": s}}) for s in (50.0, 150.0)])
+    model = build_model(batch)
+    period = period_terms(model, batch.step_size, steps)
+    fresh, fresh_share = cycle_modes(model)
+    reused, reused_share = cycle_modes(model, period=period)
+    np.testing.assert_allclose(reused, fresh, rtol=1e-9)
+    np.testing.assert_allclose(reused_share, fresh_share, atol=1e-9)

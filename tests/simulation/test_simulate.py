@@ -100,3 +100,17 @@ def test_rigid_results_repeated_over_periods_equal_the_direct_ones(revolutions):
     assert np.allclose(out["joint_force"], forces.joint_force, rtol=1e-10,
                        atol=1e-10 * np.abs(forces.joint_force).max())
     assert np.allclose(out["time"], motion.time)
+
+
+def test_cases_of_interleaved_structures_come_back_in_the_callers_order():
+    # Two structures (4 and 2 elements) interleaved: solved as two batches, returned in order.
+    scenes = [{**BASE, "drive": {"speed": speed},
+               "discretization": {"elements_per_link": ne},
+               "time": {"revolutions": 1, "steps_per_revolution": 64}}
+              for speed, ne in ((50.0, 4), (60.0, 2), (70.0, 4), (80.0, 2))]
+    together = simulate(scenes)
+    for i, scene in enumerate(scenes):
+        alone = simulate(scene)
+        assert float(together.speed[i]) == scene["drive"]["speed"]
+        np.testing.assert_array_equal(together.stress.isel(case=i).values,
+                                      alone.stress.isel(case=0).values)

@@ -12,6 +12,8 @@ rule reduce_family:
         grid="results/{study}/maps/{family}_grid.nc",
     log:
         "results/{study}/logs/reduce/{family}.log",
+    benchmark:
+        "results/{study}/benchmarks/reduce/{family}.tsv"
     resources:
         mem_mb=lambda wildcards, attempt: 1000 * attempt,
         runtime=lambda wildcards, attempt: 10 * attempt,
