@@ -88,7 +88,7 @@ LINK_KEYS = ("material", "section", "flexible")
 
 MAX_TOTAL_STEPS = 10**9
 #: Mechanism types whose elastic model is not implemented: discretization.formulation rigid.
-RIGID_ONLY_TYPES = ("watt_ii", "stephenson_iii", "linkage")
+RIGID_ONLY_TYPES: tuple[str, ...] = ()
 
 
 class _Required:
