@@ -9,11 +9,17 @@ thesis's strain-only joint conditions):
 * ``y`` — the independent unknowns: joint translation coordinates (a_J, b_J) expressed in the
   frame of a *host* link, U_J = R(θ_host)(a_J, b_J), then the interior DOFs of flexible links.
 
-Ground pins are fixed, the driven input link is clamped at its ground pivot, the slider moves
-along x only. A rigid link adds inextensibility e_iᵀ(U_s − U_f) = 0; it hosts one of its joints
-so that this constraint solves for that joint's axial coordinate with unit coefficient (never
-ill-conditioned however the links turn). Everything time-dependent is a product of rotations,
-so P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
+Ground pins are fixed, the driven input link is clamped at its ground pivot, a slider block
+moves along its fixed guide only. A rigid link adds inextensibility e_iᵀ(U_s − U_f) = 0; it
+hosts one of its joints so that this constraint solves for that joint's axial coordinate with
+unit coefficient (never ill-conditioned however the links turn). A rigid link whose joints are
+all placed already (a closed loop of rigid links, e.g. a six-bar's rigid second dyad hanging
+from a rigid first loop) solves its constraint for a remaining free coordinate of one of its
+joints instead: the coefficient is then the sine of a transmission angle, which vanishes only
+at a toggle of that rigid loop. A joint at a point of a (rigid, ternary) link moves with that
+link's small rigid motion: U_E = U_f + φ (x_E e⊥ − y_E e), φ = e⊥ᵀ(U_s − U_f)/L, (x_E, y_E)
+the point in the link frame; it has no coordinates of its own. Everything time-dependent is a
+product of rotations, so P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
 """
 from __future__ import annotations
 
@@ -40,7 +46,8 @@ class Layout:
     clamp_dofs : local indices held by the clamp of a flexible input link at its ground pivot
         (a beam's end rotation; every DOF of a continuum's pivot face)
     host : joint -> hosting link name, or None for the global frame
-    coordinate_kind : (joint, 0|1) -> "free" | "zero" | "own"
+    coordinate_kind : (joint, 0|1) -> "free" | "zero" | "own" | "point" (a joint at a point
+        of a rigid link: its translation follows from the link's, no coordinate of its own)
     constraints : list of (rigid link, "axial" | "clamp", owned (joint, component) )
     """
 
@@ -149,7 +156,9 @@ def build_layout(
     clamp_dofs : tuple of int, optional
         Local indices held by the clamp of a flexible input link at its ground pivot.
     slider_joint : str or None, optional
-        The joint on the slider guide (parallel to x: its x translation free, y fixed), if any.
+        A joint on a slider guide (its translation along the guide free, across it fixed),
+        besides those of ``topology.sliders``. The guide's direction is given to
+        :func:`projection` (``guide_angle``; parallel to x by default).
 
     Returns
     -------
@@ -164,10 +173,16 @@ def build_layout(
         if j in topology.ground_joints:
             host[j] = None
             kind[(j, 0)] = kind[(j, 1)] = "zero"
-    if slider_joint is not None:
-        host[slider_joint] = None  # the guide is parallel to x: U = (X, 0) globally
-        kind[(slider_joint, 0)] = "free"
-        kind[(slider_joint, 1)] = "zero"
+    for j in sorted(set(topology.sliders.values()) | {slider_joint} - {None},
+                    key=list(joints).index):
+        host[j] = None  # in the guide's frame: U = X (cos φ, sin φ)
+        kind[(j, 0)] = "free"
+        kind[(j, 1)] = "zero"
+    for j, link in topology.points.items():
+        if flexible[link]:
+            raise ValueError(f"links.{link}.flexible: a link with a point ({j}) is rigid")
+        host[j] = None
+        kind[(j, 0)] = kind[(j, 1)] = "point"
 
     rigid = [n for n in links if not flexible[n]]
     rigid.sort(key=lambda n: 0 if links[n][0] in topology.ground_joints else 1)
@@ -182,7 +197,14 @@ def build_layout(
             continue
         target = next((j for j in (second, first) if j not in host), None)
         if target is None:
-            continue  # closed rigid loop: handled below by fixing the remaining joints
+            # Both joints placed (a closed loop of rigid links): the constraint owns a free
+            # coordinate left at one of them, if any (else it holds already: all rigid).
+            left = next((key for key in ((second, 1), (second, 0), (first, 1), (first, 0))
+                         if kind.get(key) == "free"), None)
+            if left is not None:
+                kind[left] = "own"
+                constraints.append((name, "axial", left))
+            continue
         host[target] = name
         kind[(target, 0)] = "own"
         kind.setdefault((target, 1), "free")
@@ -202,10 +224,43 @@ def build_layout(
                   kind, constraints)
 
 
-def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], shape) -> dict[str, np.ndarray]:
-    """Rotation jet of each joint's host frame."""
+def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], shape,
+                guide_angle: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+    """Rotation jet of each joint's host frame (a slider joint's: its guide's)."""
     eye = jets.constant(np.broadcast_to(np.eye(2), shape + (2, 2)))
-    return {j: (link_rot[h] if h is not None else eye) for j, h in layout.host.items()}
+    out = {j: (link_rot[h] if h is not None else eye) for j, h in layout.host.items()}
+    for j, phi in (guide_angle or {}).items():
+        c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        R = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+        out[j] = jets.constant(np.broadcast_to(R, shape + (2, 2)))
+    return out
+
+
+def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
+                points: dict[str, np.ndarray]) -> None:
+    """Fill the rows of H of joints at points of rigid links: U_E = U_f + φ (x e⊥ − y e) with
+    φ = e⊥ᵀ(U_s − U_f)/L, in an order where each link's ends are known first."""
+    topo = layout.topology
+    joints = list(topo.joints)
+    rows = {j: slice(2 * k, 2 * k + 2) for k, j in enumerate(joints)}
+    todo = [j for j in joints if j in topo.points]
+    while todo:
+        ready = [j for j in todo if not {*topo.links[topo.points[j]]} & set(todo)]
+        if not ready:
+            raise ValueError(f"joints {todo}: points of links that hang from each other")
+        for j in ready:
+            link = topo.points[j]
+            i = topo.link_names.index(link)
+            first, second = topo.links[link]
+            R = rot[link]
+            e, n = R[..., :, 0:1], R[..., :, 1:2]
+            xy = np.asarray(points[j], float)
+            w = xy[:, 0, None, None, None] * n - xy[:, 1, None, None, None] * e
+            Hf = H[..., rows[first], :]
+            phi = jets.matmul(jets.transpose(n), H[..., rows[second], :] - Hf)
+            phi = phi / lengths[:, i][:, None, None, None]
+            H[..., rows[j], :] = Hf + jets.matmul(w, phi)
+            todo.remove(j)
 
 
 def projection(
@@ -214,6 +269,8 @@ def projection(
     link_angle: np.ndarray,
     link_velocity: np.ndarray,
     link_acceleration: np.ndarray,
+    points: dict[str, np.ndarray] | None = None,
+    guide_angle: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
 
@@ -226,13 +283,17 @@ def projection(
     layout : DOF layout of the batch
     lengths : (case, link) m
     link_angle, link_velocity, link_acceleration : (case, step, link) rigid motion
+    points : joint at a point of a link -> its coordinates in the link frame (case, 2) m;
+        every joint of ``layout.topology.points``
+    guide_angle : slider joint -> direction of its fixed guide (case,) rad; parallel to x if
+        absent
     """
     topo = layout.topology
     shape = link_angle.shape[:2]
     names = topo.link_names
     rot = {n: jets.rotation(link_angle[..., i], link_velocity[..., i], link_acceleration[..., i])
            for i, n in enumerate(names)}
-    frames = _frame_jets(layout, rot, shape)
+    frames = _frame_jets(layout, rot, shape, guide_angle)
     coords = list(layout.coordinate_kind)
     col = {key: i for i, key in enumerate(coords)}
     nx = len(coords)
@@ -240,8 +301,12 @@ def projection(
     # U = H x: joint translations from host-frame coordinates, (3, ..., 2·joints, nx).
     H = np.zeros((3,) + shape + (2 * len(topo.joints), nx))
     for k, j in enumerate(topo.joints):
+        if j in topo.points:
+            continue
         H[..., 2 * k : 2 * k + 2, col[(j, 0)]] = frames[j][..., :, 0]
         H[..., 2 * k : 2 * k + 2, col[(j, 1)]] = frames[j][..., :, 1]
+    if topo.points:
+        _point_rows(layout, H, rot, lengths, points)
 
     # x = E x_free: zero coordinates vanish, owned ones solve the rigid-link constraints.
     free = layout.free_coordinates

@@ -87,8 +87,6 @@ BUILTIN_LINK = {"material": "steel",
 LINK_KEYS = ("material", "section", "flexible")
 
 MAX_TOTAL_STEPS = 10**9
-#: Mechanism types whose elastic model is not implemented: discretization.formulation rigid.
-RIGID_ONLY_TYPES = ("watt_ii", "stephenson_iii", "linkage")
 
 
 class _Required:
@@ -468,19 +466,7 @@ def _normalize(raw: Any) -> dict:
     scene["tolerance"] = TOLERANCE_CHECK(raw["tolerance"], "tolerance") if "tolerance" in raw \
         else DEFAULT_TOLERANCE
     _assembly(mechanism, scene["drive"])
-    _rigid_only(scene)
     return scene
-
-
-def _rigid_only(scene: dict) -> None:
-    """Linkages of dyads have a rigid analysis only, so far: say so instead of guessing."""
-    disc = scene["discretization"]
-    if scene["mechanism"]["type"] in RIGID_ONLY_TYPES and (
-            disc == AUTO or disc["formulation"] != "rigid"):
-        raise SceneError("discretization.formulation", (
-            f"a {scene['mechanism']['type']} mechanism has a rigid analysis only (motion, joint "
-            "forces, input torque); its elastic model is not implemented yet: set "
-            "discretization: {formulation: rigid}"))
 
 
 # ------------------------------------------------------------------------------- public

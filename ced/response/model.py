@@ -45,6 +45,8 @@ class Model:
     effects: set[str]
     joint_mass: np.ndarray  # (case, joint) kg
     modal_damping: np.ndarray | None = None  # (case, ny, ny)
+    points: dict[str, np.ndarray] | None = None  # joint at a point of a link -> (case, 2) m
+    ternary: dict[str, dict[str, np.ndarray]] | None = None  # rigid link with points -> body
 
 
 def build_model(batch: Batch) -> Model:
@@ -101,6 +103,10 @@ def build_model(batch: Batch) -> Model:
         else:
             m = elements.rigid_body.link_matrices(length, rho=par["rho"], area=sec["area"],
                                                   second_moment=sec["second_moment"])
+            # Its mass carries the section's rotary inertia ρIL on φ (its rigid body's full
+            # moment of inertia, as in the inverse dynamics): the rigid angular acceleration
+            # loads it with the couple −ρILα, as a Timoshenko beam's sections.
+            rotary = par["rho"] * sec["second_moment"]
             ends[name] = ((0, 1), (0, 1))  # unused: a rigid link's ends follow from (u0, v0, φ)
         links[name] = LinkData(
             mass=m.mass, translational_mass=m.translational_mass, stiffness=m.stiffness,
@@ -109,20 +115,120 @@ def build_model(batch: Batch) -> Model:
             moment_load=m.moment_load, mass_per_length=par["rho"] * sec["area"],
             rotary_inertia_per_length=np.broadcast_to(rotary, length.shape).astype(float))
         sizes[name] = m.mass.shape[-1]
-    slider = "C" if batch.mechanism_type == "slider_crank" else None
+    points, ternary = _ternary_links(batch, links)
+    slider = None  # every slider joint is in the topology (topology.sliders)
     layout = build_layout(topo, flexible, sizes, ends, clamp_dofs, slider_joint=slider)
     links = {name: permute(data, split_order(layout, name)) for name, data in links.items()}
     modes = scene["discretization"].get("modes_per_link", 0)
     if modes and any(flexible.values()):
         layout, links, recovery = _reduce(layout, links, recovery, modes, slider)
     joint_mass = batch.bodies.point_mass.copy()
-    if slider is not None:
-        joint_mass[:, topo.joint_names.index(slider)] += batch.bodies.slider_mass
+    slider_mass = np.asarray(batch.bodies.slider_mass, float)
+    slider_mass = slider_mass[:, None] if slider_mass.ndim == 1 else slider_mass
+    for k, joint in enumerate(topo.sliders.values()):
+        joint_mass[:, topo.joint_names.index(joint)] += slider_mass[:, k]
     effects = set(scene["effects"])
-    model = Model(batch, layout, links, recovery, stations, effects, joint_mass)
+    model = Model(batch, layout, links, recovery, stations, effects, joint_mass,
+                  points=points, ternary=ternary)
     if "damping" in effects and scene["damping"]["model"] == "modal":
         model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
     return model
+
+
+def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict]:
+    """Points of the links (case, 2) m, and the rigid model of every link with points.
+
+    A ternary link is rigid (the scene refuses ``flexible: true`` on it) and made of bars of
+    its section welded at its first joint (:func:`ced.problem.linkage.ternary_bars`, as its
+    rigid mass properties). Its three small-motion DOFs (u0, v0, φ) at the first joint give
+    each bar's (R(β)ᵀ(u0, v0), φ), β the bar's direction, so its matrices are the sum of the
+    bars' rigid matrices rotated to the link frame: M, M_w, G (the 90° rotation of the
+    Coriolis term commutes with R(β)). Its loads are the resultant force and moment of the
+    d'Alembert and weight field (:func:`terms_at`), put on (u0, v0) and φ directly; its
+    geometric stiffness on φ is Σ F·r over every force on it (:func:`_ternary_loads`)."""
+    topo = batch.topology
+    if not topo.points:
+        return None, None
+    from ..problem.linkage import describe, ternary_bars
+
+    descriptions = [describe(s["mechanism"]) for s in batch.scenes]
+    points = {j: np.array([d["points"][j]["at"] for d in descriptions], float)
+              for j in topo.points}
+    ternary = {}
+    for name in sorted(set(topo.points.values()), key=topo.link_names.index):
+        i = topo.link_names.index(name)
+        par = {key: batch.link_property(name, group, key) for group, key in
+               (("material", "rho"), ("section", "area"), ("section", "second_moment"))}
+        n = batch.size
+        mass, trans, gyro = (np.zeros((n, 3, 3)) for _ in range(3))
+        for c in range(n):
+            for x, y in ternary_bars(descriptions[c], name, batch.link_lengths[c, i]):
+                bar = elements.rigid_body.link_matrices(
+                    np.hypot(x, y), rho=par["rho"][c], area=par["area"][c],
+                    second_moment=par["second_moment"][c])
+                cb, sb = x / np.hypot(x, y), y / np.hypot(x, y)
+                T = np.array([[cb, sb, 0.0], [-sb, cb, 0.0], [0.0, 0.0, 1.0]])
+                mass[c] += T.T @ bar.mass @ T
+                trans[c] += T.T @ bar.translational_mass @ T
+                gyro[c] += T.T @ bar.gyroscopic @ T
+        geometric = np.zeros((n, 3, 3, 3))
+        geometric[:, 0, 2, 2] = 1.0  # K_φφ = N0 · 1: the coefficient carries Σ F·r
+        load_constant = np.broadcast_to(np.eye(3)[:, :2], (n, 3, 2)).copy()
+        moment = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (n, 3)).copy()
+        links[name] = LinkData(
+            mass=mass, translational_mass=trans, stiffness=np.zeros((n, 3, 3)),
+            gyroscopic=gyro, geometric_stiffness=geometric, load_constant=load_constant,
+            load_linear=np.zeros((n, 3, 2)), moment_load=moment, mass_per_length=np.zeros(n),
+            rotary_inertia_per_length=np.zeros(n))
+        m = mass[:, 0, 0]
+        ternary[name] = {"mass": m, "centre": np.stack([mass[:, 1, 2], -mass[:, 0, 2]], -1)
+                         / m[:, None], "inertia": mass[:, 2, 2], "polar": trans[:, 2, 2]}
+    return points, ternary
+
+
+def _ternary_loads(model: Model, name: str, motion, forces, g, has_inertia: bool):
+    """Resultant (force in the link frame (case, step, 2), moment about the first joint
+    (case, step)) of the weight and d'Alembert field of a rigid ternary link, and its
+    geometric stiffness on φ, Σ F·r over the forces on it (joint forces, point masses it
+    carries, its own field; r from its first joint in its frame), or None without ``forces``.
+
+    The second-order displacement of a point r under a small rotation φ is −φ²r/2, so the
+    forces F on the body store (φ²/2) Σ F·r: for a bar it is ∫N ds, the rigid link's K_g."""
+    topo = model.layout.topology
+    body = model.ternary[name]
+    i = topo.link_names.index(name)
+    th = motion.link_angle[..., i]
+    c, s = np.cos(th), np.sin(th)
+    local = lambda v: np.stack([c * v[..., 0] + s * v[..., 1],  # noqa: E731
+                                -s * v[..., 0] + c * v[..., 1]], axis=-1)
+    first, second = topo.links[name]
+    acc = lambda k: motion.joint_acceleration[:, :, k] if has_inertia else 0.0  # noqa: E731
+    q = local(g - acc(topo.joint_names.index(first)))  # per unit mass at the first joint
+    m = body["mass"][:, None]
+    cx, cy = body["centre"][:, None, 0], body["centre"][:, None, 1]
+    force = m[..., None] * q
+    moment = m * (cx * q[..., 1] - cy * q[..., 0])
+    stiffness = m * (cx * q[..., 0] + cy * q[..., 1])
+    if has_inertia:
+        w = motion.link_angular_velocity[..., i]
+        al = motion.link_angular_acceleration[..., i]
+        force = force + m[..., None] * np.stack([w * w * cx + al * cy, w * w * cy - al * cx],
+                                                axis=-1)
+        moment = moment - al * body["inertia"][:, None]
+        stiffness = stiffness + w * w * body["polar"][:, None]
+    if forces is None:
+        return force, moment, None
+    arms = {second: np.stack([model.batch.link_lengths[:, i], 0 * cx[:, 0]], -1)}
+    arms.update({j: model.points[j] for j, link in topo.points.items() if link == name})
+    carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
+    for j, arm in arms.items():
+        k = topo.joint_names.index(j)
+        f = (1.0 if topo.joints[j][1] == name else -1.0) * forces[:, :, k]
+        if carrier[j] == name:
+            mp = model.batch.bodies.point_mass[:, k][:, None, None]
+            f = f + mp * (g - acc(k))
+        stiffness = stiffness + np.sum(local(f) * arm[:, None, :], axis=-1)
+    return force, moment, stiffness
 
 
 def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str | None):
@@ -193,8 +299,11 @@ def terms_at(
     motion = batch.rigid_motion(times)
     gravity = batch.gravity if "gravity" in effects else np.zeros_like(batch.gravity)
     has_inertia = "inertia" in effects
+    guides = ({topo.sliders[b]: phi for b, phi in motion.guide_angle.items()}
+              if motion.guide_angle else None)
     P = projection(layout, batch.link_lengths, motion.link_angle,
-                   motion.link_angular_velocity, motion.link_angular_acceleration)
+                   motion.link_angular_velocity, motion.link_angular_acceleration,
+                   model.points, guides)
     g = gravity[:, None, :]
     loads, axial = {}, {} if "axial_stiffening" in effects else None
     forces = None
@@ -208,6 +317,13 @@ def terms_at(
         kf = topo.joint_names.index(first)
         rho_a = model.links[name].mass_per_length[:, None, None]
         acc = motion.joint_acceleration[:, :, kf] if has_inertia else 0.0
+        if model.ternary and name in model.ternary:
+            force, moment, stiffness = _ternary_loads(model, name, motion, forces, g,
+                                                      has_inertia)
+            loads[name] = (force, np.zeros_like(force), moment)
+            if axial is not None:
+                axial[name] = np.stack([stiffness, 0 * stiffness, 0 * stiffness])
+            continue
         glob = rho_a * (g - acc)  # distributed load at s = 0, global, N/m
         b0 = np.stack([c * glob[..., 0] + s * glob[..., 1],
                        -s * glob[..., 0] + c * glob[..., 1]], axis=-1)

@@ -101,3 +101,45 @@ def test_layout_dof_counts():
     # All links rigid: no elastic freedom at all.
     rigid = _layout("four_bar", {"crank": False, "coupler": False, "rocker": False})
     assert rigid.ny == 0
+
+
+@pytest.mark.parametrize("flexible_links", [("coupler2",), ("coupler", "rocker2"), ("crank",)])
+def test_watt_ii_projection_keeps_rigid_links_rigid_and_points_on_them(flexible_links):
+    """Six-bar: every rigid link inextensible (closed rigid loops included), the joint E at a
+    point of the rigid ternary rocker moving with it, and Ṗ, P̈ the time derivatives of P."""
+    from ced.problem.scene import load_scene
+    from ced.response.batch import make_batch
+    from ced.response.model import build_model, terms_at
+    from tests.rigid.test_dyads import WATT_II
+
+    links = {n: {"flexible": n in flexible_links}
+             for n in ("crank", "coupler", "coupler2", "rocker2")}
+    batch = make_batch([load_scene({"mechanism": WATT_II, "links": links})])
+    model = build_model(batch)
+    layout, topo = model.layout, model.layout.topology
+    dt, t0 = 1e-5, 0.037
+    times = (t0 + dt * np.arange(-4, 5))[None]
+    _, P = terms_at(model, times)
+    jet = projection(layout, batch.link_lengths, *(
+        getattr(batch.rigid_motion(times), k) for k in
+        ("link_angle", "link_angular_velocity", "link_angular_acceleration")), model.points)
+    assert np.array_equal(jet[0], P)
+    fd1 = np.tensordot(FD8, jet[0, 0], axes=(0, 0)) / dt
+    assert np.abs(fd1 - jet[1, 0, 4]).max() < 1e-7 * np.abs(jet[1, 0, 4]).max() + 1e-9
+    y = np.random.default_rng(1).normal(size=(9, layout.ny))
+    z = layout.expand(P[0], y)
+    U = {j: z[:, off:off + 2] for j, off in layout.joint_offsets.items()}
+    motion = batch.rigid_motion(times)
+    for i, name in enumerate(topo.links):
+        th = motion.link_angle[0, :, i]
+        e = np.stack([np.cos(th), np.sin(th)], -1)
+        n = np.stack([-np.sin(th), np.cos(th)], -1)
+        first, second = topo.links[name]
+        if not layout.flexible[name]:
+            assert np.abs(np.sum(e * (U[second] - U[first]), -1)).max() < 1e-12, name
+        if name == "rocker":
+            phi = np.sum(n * (U[second] - U[first]), -1) / batch.link_lengths[0, i]
+            x, yy = model.points["E"][0]
+            expected = U[first] + phi[:, None] * (x * n - yy * e)
+            assert np.allclose(U["E"], expected, atol=1e-12)
+    assert layout.ny == len(layout.free_coordinates) + len(layout.interior_dofs)

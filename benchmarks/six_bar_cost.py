@@ -1,0 +1,80 @@
+"""Cost of a batch of six-bars against a batch of four-bars, per case, step and elastic DOF.
+
+Issue 18, point 5: a batch of six-bar cases must cost no more per elastic DOF than a batch of
+four-bars. Batches of ``BATCH`` cases (speeds spread over a decade), one BLAS thread, the
+periodic start, the scene's default effects and Euler–Bernoulli beams; the reference four-bar
+with a flexible coupler and rocker, and the Watt II of the tests with its three flexible
+binary links (coupler, coupler2, rocker2; crank rigid, the ternary rocker rigid). The
+four-bar is also run with more elements so that both models have the same number of elastic
+DOFs (the dense per-step algebra grows faster than linearly in it). Each time is the fastest
+of ``REPEATS`` runs (a loaded machine only slows a run down). Results go to
+``benchmarks/six_bar_cost.json``.
+
+Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about a minute).
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from ced.problem.scene import load_scene  # noqa: E402
+from ced.response.batch import make_batch  # noqa: E402
+from ced.response.model import build_model  # noqa: E402
+from ced.simulation.simulate import simulate  # noqa: E402
+
+BATCH = 8
+REPEATS = 3
+STEPS = 256
+FOUR_BAR = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
+WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+           "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+           "pivot2_x": 0.2, "pivot2_y": -0.3}
+CASES = {
+    "four_bar": (FOUR_BAR, 4, {"crank": {"flexible": False}}),
+    "watt_ii": (WATT_II, 4, {"crank": {"flexible": False}}),
+    "four_bar_same_dofs": (FOUR_BAR, 6, {"crank": {"flexible": False}}),
+}
+
+
+def scenes(mechanism, elements, links):
+    return [{"mechanism": mechanism, "links": links, "drive": {"speed": float(w)},
+             "discretization": {"formulation": "euler_bernoulli",
+                                "elements_per_link": elements},
+             "time": {"revolutions": 1, "steps_per_revolution": STEPS, "start": "periodic"},
+             "outputs": {"error_estimate": False}}
+            for w in np.geomspace(10.0, 100.0, BATCH)]
+
+
+def main() -> None:
+    out = {}
+    for name, (mechanism, elements, links) in CASES.items():
+        batch = scenes(mechanism, elements, links)
+        ny = build_model(make_batch([load_scene(s) for s in batch])).layout.ny
+        simulate(batch[:1])  # warm-up (compiled kernels, imports)
+        best = min(_timed(batch) for _ in range(REPEATS))
+        out[name] = {"elastic_dofs": ny, "seconds": best,
+                     "seconds_per_case_step": best / BATCH / STEPS,
+                     "microseconds_per_case_step_dof": 1e6 * best / BATCH / STEPS / ny}
+        print(name, out[name], flush=True)
+    out["ratio_watt_ii_to_four_bar_same_dofs"] = (
+        out["watt_ii"]["seconds"] / out["four_bar_same_dofs"]["seconds"])
+    out["machine_note"] = "2 cores shared with other jobs; fastest of the repeats"
+    Path(__file__).with_suffix(".json").write_text(json.dumps(out, indent=2) + "\n")
+
+
+def _timed(batch) -> float:
+    start = time.perf_counter()
+    simulate(batch)
+    return time.perf_counter() - start
+
+
+if __name__ == "__main__":
+    main()
