@@ -20,11 +20,17 @@ A term whose effect is absent is never formed.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from .coupling import Layout
+from .sandwich import sandwich_add
+
+#: Form Pᵀ A P in the compiled loop (:mod:`ced.fem.sandwich`); ``CED_KERNEL=numpy`` keeps the
+#: numpy products, the reference it is tested against.
+COMPILED = os.environ.get("CED_KERNEL", "numba") != "numpy"
 
 __all__ = ["LinkData", "SystemTerms", "system_terms", "axial_force_coefficients", "split_order",
            "permute"]
@@ -162,6 +168,10 @@ class _Split:
     def sandwich(self, out: np.ndarray, A: np.ndarray, left: int = 0, right: int = 0) -> None:
         """out += P⁽ˡᵉᶠᵗ⁾ᵀ A P⁽ʳⁱᵍʰᵗ⁾ for a permuted A, (case, n, n) or (case, step, n, n);
         left, right are the time-derivative orders of the projections (S is constant)."""
+        if COMPILED and out.flags.c_contiguous and out.dtype == np.float64:
+            sandwich_add(out, A, self.T[left], self.T[right], self.ns, self.cols.start,
+                         left, right)
+            return
         if A.ndim == 3:
             A = A[:, None]
         ns, c, f = self.ns, self.cols, slice(0, self.nf)
