@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..io import open_dataset  # noqa: E402
 from ..problem.mechanism import topology  # noqa: E402
 from ..problem.status import STATUS_FILL, STATUS_FLAGS, status_names  # noqa: E402
 
@@ -63,7 +64,7 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
     """
-    datasets = [xr.open_dataset(p, engine="netcdf4") for p in paths]
+    datasets = [open_dataset(p) for p in paths]
     has_stress = any("peak_stress" in ds for ds in datasets)
     rows = 2 if has_stress else 1
     fig, axes = plt.subplots(rows, len(datasets), figsize=(3.2 * len(datasets), 3.0 * rows),
@@ -104,7 +105,7 @@ def estimate_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
     everything = []
     for i, path in enumerate(paths):
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with open_dataset(path) as ds:
             if "error_estimate" not in ds:
                 continue
             ok = np.nan_to_num(ds.status.values) == 0
@@ -214,7 +215,7 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
     """
-    with xr.open_dataset(path, engine="netcdf4") as ds:
+    with open_dataset(path) as ds:
         ds = ds.load()
     family = str(ds.family.values[0]) if "family" in ds.coords else Path(path).stem
     if "natural_frequency_min" not in ds:
@@ -345,7 +346,7 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
     """
     from matplotlib.colors import LogNorm
 
-    with xr.open_dataset(path, engine="netcdf4") as grid:
+    with open_dataset(path) as grid:
         grid = grid.load()
     family = str(grid.family.values) if "family" in grid.coords else Path(path).stem
     sl, y, fixed = map_slice(grid, material)
@@ -479,7 +480,7 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
         The SVG file written (default: ``png`` with ``.svg``).
     """
 
-    with xr.open_dataset(summary_path, engine="netcdf4") as summary:
+    with open_dataset(summary_path) as summary:
         summary = summary.load()
     family = str(summary.family.values[0]) if "family" in summary.coords else "family"
     case = _worst_case(summary) if "peak_stress" in summary else None
@@ -492,7 +493,7 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
         return
     ds = None
     for path in chunk_paths:
-        with xr.open_dataset(path, engine="netcdf4") as chunk:
+        with open_dataset(path) as chunk:
             if case in chunk.case.values:
                 ds = chunk.sel(case=case).load()
                 break
@@ -505,12 +506,15 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     angle = np.degrees(angle - angle[0])
     stress = ds.stress.sel(link=body, station=mid) / 1e6
     defl = ds.deflection.sel(link=body, station=mid) * 1e3
-    worst = int(abs(ds.stress).max(["link", "station"]).argmax("step"))
+    worst = int(abs(ds.stress).max(["link", "station", "fibre"]).argmax("step"))
     fig = plt.figure(figsize=(10, 4.6), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1))
     ax1, ax2 = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
     ax1.sharex(ax2)
-    ax1.plot(angle, stress, color="C3")
+    for fibre, style in zip(stress.fibre.values, ("-", "--")):
+        ax1.plot(angle, stress.sel(fibre=fibre), color="C3", ls=style,
+                 label=f"fibre y/h = {fibre:+g}")
+    ax1.legend(fontsize=7, loc="best")
     ax1.set_ylabel(f"{body} mid-span\nstress [MPa]")
     ax2.plot(angle, defl, color="C0")
     ax2.set_ylabel(f"{body} mid-span\ndeflection [mm]")

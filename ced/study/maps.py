@@ -30,9 +30,10 @@ import json
 import numpy as np
 import xarray as xr
 
-from ..io import write_dataset
+from ..io import open_dataset, write_dataset
 from ..problem.status import STATUS_DTYPE, STATUS_FILL, STATUS_FLAGS
 from ..response.periodic import INSTABILITY_MARGIN
+from .fatigue import case_fatigue
 
 __all__ = ["case_summary", "family_grid", "reduce_family", "harmonic_ratio", "stable_flag",
            "GRID_ORDER", "HARMONIC_ORDER"]
@@ -81,8 +82,9 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
     Returns
     -------
     xarray.Dataset
-        Per case: peak stress (Pa) and deflection (m) per link, first natural frequency band
-        (Hz), distance from the nearest crank harmonic, stability, status, …
+        Per case: peak stress (Pa) and deflection (m) per link, fatigue safety factor per link
+        (:func:`ced.study.fatigue.case_fatigue`), first natural frequency band (Hz), distance
+        from the nearest crank harmonic, stability, status, …
     """
     with xr.set_options(keep_attrs=True):
         out = xr.Dataset(coords={k: v for k, v in ds.coords.items()
@@ -106,6 +108,9 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
                 out["harmonic_ratio_min"] = harmonic_ratio(low, high, ds.speed)
         if "floquet_multiplier_max" in ds or "status" in ds:
             out["stable"] = stable_flag(ds.get("floquet_multiplier_max"), ds.get("status"))
+        fatigue = case_fatigue(ds)
+        if fatigue is not None:
+            out.update(fatigue)
         if stress_safety_factor is not None and "peak_stress" in ds:
             strength = _yield_strength(ds)
             if strength is not None:
@@ -307,7 +312,7 @@ def reduce_family(paths: list[str], output: str, grid_output: str | None = None,
     """
     parts = []
     for path in paths:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with open_dataset(path) as ds:
             parts.append(case_summary(ds, stress_safety_factor).load())
     combined = xr.concat(parts, dim="case", data_vars="all", coords="different",
                          compat="equals", join="exact", combine_attrs="drop_conflicts")

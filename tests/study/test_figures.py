@@ -3,7 +3,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 import yaml
 
 from ced.study.figures import (campbell_figure, magnification, map_slice, overview_figure,
@@ -12,6 +11,7 @@ from ced.study.maps import reduce_family
 from ced.study.safe_speed import write_safe_speed_table
 from ced.study.cases import chunks
 from ced.study.chunk_job import run_chunk
+from ced.io import open_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -46,7 +46,7 @@ def test_resonance_map(maps, family):
 
 def test_map_slice_picks_the_varied_length(maps):
     _, out = maps
-    with xr.open_dataset(out["crank_rocker"][1], engine="netcdf4") as grid:
+    with open_dataset(out["crank_rocker"][1]) as grid:
         sl, y, fixed = map_slice(grid.load())
     # crank_rocker of the test study: crank 0.05, coupler 0.2, rocker 0.15 / 0.2
     assert y == "rocker" and fixed["material"] == "aluminium"
@@ -71,7 +71,7 @@ def test_worst_case_is_largest_design_case(maps):
     from ced.study.figures import _worst_case
 
     _, out = maps
-    with xr.open_dataset(out["crank_rocker"][0], engine="netcdf4") as ds:
+    with open_dataset(out["crank_rocker"][0]) as ds:
         ds = ds.load()
     stress = ds.peak_stress.max("link").values.copy()
     stress[(ds.status.values.astype(int) & (1 | 4 | 8 | 16)) != 0] = -np.inf
@@ -111,7 +111,7 @@ def test_estimate_figure_counts_the_unflagged_cases(maps):
     assert written(png)
     unflagged = 0
     for p in paths:
-        with xr.open_dataset(p, engine="netcdf4") as ds:
+        with open_dataset(p) as ds:
             ok = ds.status.values == 0
             unflagged += int(np.isfinite(ds.error_estimate.values[ok]).sum())
     assert f"the {unflagged} unflagged cases" in png.with_suffix(".svg").read_text()

@@ -99,7 +99,7 @@ rule worst_case_figure:
 
 
 rule safe_speed_table:
-    """Safe speed limit per geometry: factor x peak stress <= yield, not resonant/unstable."""
+    """Safe speed limit per geometry: credible cases within yield and fatigue limits."""
     input:
         expand("results/{{study}}/maps/{family}.nc", family=FAMILIES),
     output:
@@ -113,6 +113,8 @@ rule safe_speed_table:
         "results/{study}/logs/tables/safe_speed.log",
     params:
         stress_safety_factor=config["stress_safety_factor"],
+        fatigue_safety_factor=config["fatigue_safety_factor"],
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/safe_speed_table.py"
 
