@@ -40,8 +40,8 @@ def to_cf(ds: xr.Dataset) -> xr.Dataset:
     -------
     xarray.Dataset
         The same data; each text dimension coordinate ``d`` replaced by ``d`` = 0, 1, …
-        (``units`` 1) and the auxiliary coordinate ``d_name`` (the labels, with the original
-        attributes).
+        (``units`` 1) and the auxiliary coordinate ``d_name`` (the labels, with the
+        original attributes).
 
     Examples
     --------
@@ -60,14 +60,13 @@ def to_cf(ds: xr.Dataset) -> xr.Dataset:
         return ds
     out = ds.assign_coords({
         dim: (dim, np.arange(coord.size, dtype="int32"),
-              {"units": "1", "long_name": f"{coord.attrs.get('long_name', dim)} index",
+              {"units": "1", "long_name": f"index along {dim}",
                "comment": f"labels in {dim}{LABEL_SUFFIX}; ced.io.open_dataset restores them "
                           f"as the index of {dim}"})
         for dim, coord in labels.items()})
     return out.assign_coords({
         f"{dim}{LABEL_SUFFIX}": (dim, coord.values.astype(object),
-                                 {**coord.attrs, "long_name": coord.attrs.get("long_name", dim)
-                                  + " name"})
+                                 {"long_name": dim.replace("_", " "), **coord.attrs})
         for dim, coord in labels.items()})
 
 
@@ -90,10 +89,7 @@ def from_cf(ds: xr.Dataset) -> xr.Dataset:
         name = f"{dim}{LABEL_SUFFIX}"
         if name in ds.coords and ds[name].dims == (dim,) and dim in ds.coords \
                 and ds[dim].dtype.kind in "iu":
-            attrs = dict(ds[name].attrs)
-            if attrs.get("long_name", "").endswith(" name"):
-                attrs["long_name"] = attrs["long_name"][:-len(" name")]
-            restore[dim] = (dim, ds[name].values.astype(object), attrs)
+            restore[dim] = (dim, ds[name].values.astype(object), dict(ds[name].attrs))
     if not restore:
         return ds
     return ds.drop_vars([f"{d}{LABEL_SUFFIX}" for d in restore]).assign_coords(restore)

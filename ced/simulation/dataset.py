@@ -146,7 +146,8 @@ CASE_COORDINATES: dict[str, tuple[str, str, str]] = {
     "family": ("", "mechanism family", "always"),
     "scene_name": ("", "scene name", "when a scene has a `name`"),
     "speed": ("rad s-1", "input speed", "always"),
-    "material": ("", "material of the first flexible link (of the crank if none is)", "always"),
+    "material": ("", "material of the first flexible link (of the crank if none is); the long "
+                 "name lists the links that share it", "always"),
     "ground": ("m", "ground length", "four-bar"),
     "crank": ("m", "crank length", "four-bar, slider-crank"),
     "coupler": ("m", "coupler length", "four-bar"),
@@ -279,13 +280,20 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     topo = topology(kind)
     # The material and section of the first flexible link describe the case (all links if rigid).
     link = next((n for n in topo.links if scenes[0]["links"][n]["flexible"]), topo.link_names[0])
+    def holders(key: str) -> str:
+        """The links whose ``key`` (material, section) is the described one in every case."""
+        same = [n for n in topo.link_names
+                if all(s["links"][n][key] == s["links"][link][key] for s in scenes)]
+        return ("every link" if len(same) == len(topo.link_names)
+                else "the " + " and ".join(same))
+
     coords = {
         "family": ("case", np.array(families, dtype=object), {"long_name": "mechanism family"}),
         "speed": ("case", speeds,
                   {"units": "rad s-1", "long_name": "input speed"}),
         "material": ("case", np.array([s["links"][link]["material"]["name"] for s in scenes],
                                       dtype=object),
-                     {"long_name": f"material of the {link}"}),
+                     {"long_name": f"material of {holders('material')}"}),
     }
     names = [s.get("name") or "" for s in scenes]
     if any(names):  # unnamed scenes (a study's) have no name to store
@@ -298,11 +306,12 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
         coords[key] = ("case", np.array([s["mechanism"][key] for s in scenes], float),
                        {"units": units, "long_name": f"{key.replace('_', ' ')}"})
     section = scenes[0]["links"][link]["section"]
+    sections = holders("section")
     for key in ("height", "width", "diameter"):
         if key in section:
             coords[f"section_{key}"] = (
                 "case", np.array([s["links"][link]["section"][key] for s in scenes], float),
-                {"units": "m", "long_name": f"section {key} of the {link}"})
+                {"units": "m", "long_name": f"section {key} of {sections}"})
     return {k: (v[0], v[1][order], v[2]) for k, v in coords.items()}
 
 
@@ -356,7 +365,16 @@ def dataset_reference() -> str:
         "Each case is described by its parameters, as coordinates along `case` (select with "
         "`ds.where(ds.family == 'crank_rocker', drop=True)` or `ds.swap_dims(case='speed')`). "
         "The dimension coordinates are `case` (index), `step` (solver step index), `link`, "
-        "`joint`, `axis` (x, y), `station` (0…1), `modal_angle` (rad) and `mode`.",
+        "`joint`, `axis` (x, y), `station` (0…1), `fibre` (y/h), `modal_angle` (rad) and "
+        "`mode`.",
+        "",
+        "In the file, a dimension labelled by text (`link`, `joint`, `axis`, and `material` in "
+        "a study's grid maps) is an integer index, as CF requires of coordinate variables, "
+        "with the labels as the auxiliary coordinate `link_name` (`joint_name`, …). "
+        "`ced.open_dataset(path)` (`ced.io.open_dataset`) restores the labels as the index, "
+        "so that selecting by name stays one call: "
+        "`ced.open_dataset('run.nc').stress.sel(link='coupler', fibre=0.5)`. With plain "
+        "xarray, `ds.swap_dims(link='link_name')` does the same.",
         "",
         markdown_table(["coordinate", "units", "meaning", "present"], coords),
         "",
