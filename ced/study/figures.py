@@ -12,10 +12,11 @@ import xarray as xr  # noqa: E402
 
 from ..io import open_dataset  # noqa: E402
 from ..problem.mechanism import topology  # noqa: E402
-from ..problem.status import STATUS_FILL, STATUS_FLAGS, status_names  # noqa: E402
+from ..problem.status import STATUS_FILL, status_names  # noqa: E402
+from .safe_speed import NOT_CREDIBLE, credibility  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
-           "resonance_map", "map_slice", "worst_case_figure", "magnification", "HARMONICS",
+           "resonance_map", "map_slice", "worst_case_figure", "worst_cases", "magnification", "HARMONICS",
            "MAP_HARMONICS"]
 
 #: Harmonics k of the curves k·Ω/2π = f_1 on resonance maps.
@@ -438,125 +439,161 @@ def magnification(deflection: float, size: float, fraction: float = 0.1) -> floa
     return float(mantissa * 10**exponent)
 
 
-#: A resonant or parametrically unstable periodic state (finite but unbounded in reality), a
-#: deflection beyond the linear model's validity, or a failed case is no design answer; the
-#: worst case is chosen among the others; so is a buckled one (a link beyond its Euler load).
-_NOT_A_DESIGN_CASE = (STATUS_FLAGS["failed"] | STATUS_FLAGS["resonant"]
-                      | STATUS_FLAGS["parametrically_unstable"] | STATUS_FLAGS["large_deflection"]
-                      | STATUS_FLAGS["buckled"])
+def worst_cases(summary: xr.Dataset, error_tolerance: float = 0.05) -> dict[str, int]:
+    """Case ids of a family's worst credible case and its worst flagged one.
 
+    Worst: the largest peak stress (max over links). Credible: not flagged by any of
+    :data:`ced.study.safe_speed.NOT_CREDIBLE` and an error estimate within
+    ``error_tolerance`` (:func:`ced.study.safe_speed.credibility`); flagged: every other case
+    with a finite peak stress (a resonant or large-deflection case can show GPa: no design
+    answer, but a warning the designer must see).
 
-def _worst_case(summary: xr.Dataset) -> int | None:
-    """Case id with the largest peak stress (max over links) among cases not flagged failed,
-    resonant, parametrically unstable or large_deflection (reported by flags and maps)."""
+    Parameters
+    ----------
+    summary : xarray.Dataset
+        A family summary (``maps/<family>.nc``).
+    error_tolerance : float
+        Largest credible error estimate (dimensionless).
+
+    Returns
+    -------
+    dict
+        ``{"credible": id, "flagged": id}``, each key only where such a case exists.
+    """
     stress = summary.peak_stress.max("link").values
-    bits = (np.nan_to_num(summary.status.values).astype(int) if "status" in summary
-            else np.zeros(stress.shape, int))
-    ok = np.isfinite(stress) & ((bits & _NOT_A_DESIGN_CASE) == 0)
-    if not ok.any():
-        return None
-    return int(summary.case.values[np.flatnonzero(ok)[np.argmax(stress[ok])]])
+    n = len(stress)
+    reasons = credibility(summary.status.values if "status" in summary else np.zeros(n),
+                          summary.error_estimate.values if "error_estimate" in summary
+                          else np.full(n, np.nan), error_tolerance)
+    credible = np.array([not r for r in reasons])
+    out = {}
+    for key, mask in (("credible", credible), ("flagged", ~credible)):
+        mask = mask & np.isfinite(stress)
+        if mask.any():
+            out[key] = int(summary.case.values[np.flatnonzero(mask)[np.argmax(stress[mask])]])
+    return out
+
+
+def _case_row(fig, grid, row: int, ds: xr.Dataset, kind: str, why: str) -> None:
+    """One case: the stress history at its critical point (both fibres) and the linkage at
+    the instant of the history's peak."""
+    links = [str(n) for n in ds.link.values]
+    peak = abs(ds.stress).max(["step", "fibre"])  # (link, station)
+    where = np.unravel_index(int(np.nanargmax(peak.values)), peak.shape)
+    link, station = links[where[0]], float(ds.station.values[where[1]])
+    history = ds.stress.sel(link=link, station=station) / 1e6  # (step, fibre), MPa
+    worst = int(abs(history).max("fibre").argmax("step"))
+    drawn_peak = float(abs(history).max())
+    angle = np.unwrap(ds.crank_angle.values)
+    angle = np.degrees(angle - angle[0])
+    ax = fig.add_subplot(grid[row, 0])
+    for fibre, style in zip(history.fibre.values, ("-", "--")):
+        ax.plot(angle, history.sel(fibre=fibre), color="C3", ls=style,
+                label=f"fibre y/h = {fibre:+g}")
+    ax.axvline(angle[worst], color="0.4", lw=0.8, ls=":", label="instant drawn right")
+    ax.axhline(0.0, color="0.6", lw=0.5)
+    ax.set_ylabel(f"stress, {link} at\nstation {station:g} [MPa]")
+    ax.set_xlabel("crank angle from start of the cycle [deg]")
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
+                         if k in ds.coords and ds[k].ndim == 0)
+    speed = float(ds.speed)
+    ax.set_title(f"{kind} case {int(ds.case)}: {geometry} m, {ds.material.item()}, "
+                 f"Ω = {speed:g} rad/s ({speed * 60 / (2 * np.pi):.0f} rpm)\n"
+                 f"peak of the curve {drawn_peak:.4g} MPa; {why}", fontsize=8, loc="left")
+    ax = fig.add_subplot(grid[row, 1])
+    _linkage(ax, ds, worst, links)
+
+
+def _linkage(ax, ds: xr.Dataset, step: int, links: list[str]) -> None:
+    """The linkage at ``step``: rigid (grey) and with the deflection magnified (red), in m."""
+    topo = topology("slider_crank" if "rod" in links else "four_bar")
+    pos = ds.joint_position.isel(step=step)
+    xy = ds.joint_position.values
+    size = max(float(np.ptp(xy[..., 0])), float(np.ptp(xy[..., 1]))) + 1e-9
+    w = ds.deflection.isel(step=step)
+    factor = magnification(float(abs(ds.deflection).max()), size)
+    s = ds.station.values
+    for name in links:
+        a, b = (pos.sel(joint=j).values for j in topo.links[name])
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round",
+                label="rigid" if name == links[0] else None)
+        chord = b - a
+        normal = np.array([-chord[1], chord[0]]) / (np.hypot(*chord) or 1.0)
+        line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
+        ax.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
+                label=f"deflection ×{factor:g}" if name == links[0] else None)
+    ax.plot(pos.values[:, 0], pos.values[:, 1], "ko", ms=4)
+    for j, (px, py) in zip(pos.joint.values, pos.values):
+        ax.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title(f"linkage at {np.degrees(float(ds.crank_angle[step])) % 360:.0f}° crank angle",
+                 fontsize=8)
 
 
 def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str | Path,
-                      svg: str | Path | None = None) -> None:
-    """Time history of a family's worst case: the case with the largest peak stress (max over
-    links) not flagged failed, resonant, parametrically unstable or large_deflection.
+                      svg: str | Path | None = None, error_tolerance: float = 0.05) -> None:
+    """A family's worst credible case and, below it, its worst flagged case
+    (:func:`worst_cases`).
 
-    Left: stress and transverse deflection at mid-span of the coupler (four-bar) or rod
-    (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
-    the worst instant (the step of the largest |stress| anywhere), rigid (grey) and deformed
-    with the elastic deflection magnified by the factor in the title.
+    Each row: left, the stress at both outer fibres of the case's critical point (the link
+    and station of its largest absolute stress) over one cycle of the crank; the title's peak
+    is that curve's. Right: the linkage, in metres, at the instant of that peak, rigid (grey)
+    and with the elastic deflection magnified by the round factor in its legend.
 
     Parameters
     ----------
     summary_path : str or Path
         The family summary file.
     chunk_paths : list of str
-        The family's chunk files (the time history is read from the worst case's chunk).
+        The family's chunk files (the time histories are read from the cases' chunks).
     png : str or Path
         The PNG file written.
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
+    error_tolerance : float
+        Largest credible error estimate (dimensionless), as in the safe-speed table.
     """
-
     with open_dataset(summary_path) as summary:
         summary = summary.load()
     family = str(summary.family.values[0]) if "family" in summary.coords else "family"
-    case = _worst_case(summary) if "peak_stress" in summary else None
-    if case is None:
+    cases = worst_cases(summary, error_tolerance) if "peak_stress" in summary else {}
+    if not cases:
         fig, ax = plt.subplots(figsize=(5, 3))
         ax.text(0.5, 0.5, f"{family}: no elastic result to show", ha="center", va="center",
                 transform=ax.transAxes)
         ax.set_axis_off()
         save(fig, png, svg)
         return
-    ds = None
+    data = {}
     for path in chunk_paths:
         with open_dataset(path) as chunk:
-            if case in chunk.case.values:
-                ds = chunk.sel(case=case).load()
-                break
-    if ds is None:
-        raise ValueError(f"worst_case_figure: case {case} is in none of the chunk files")
-    links = [str(n) for n in ds.link.values]
-    body = "coupler" if "coupler" in links else "rod" if "rod" in links else links[-1]
-    mid = float(ds.station.sel(station=0.5, method="nearest"))
-    angle = np.unwrap(ds.crank_angle.values)
-    angle = np.degrees(angle - angle[0])
-    stress = ds.stress.sel(link=body, station=mid) / 1e6
-    defl = ds.deflection.sel(link=body, station=mid) * 1e3
-    worst = int(abs(ds.stress).max(["link", "station", "fibre"]).argmax("step"))
-    fig = plt.figure(figsize=(10, 4.6), constrained_layout=True)
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1))
-    ax1, ax2 = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
-    ax1.sharex(ax2)
-    for fibre, style in zip(stress.fibre.values, ("-", "--")):
-        ax1.plot(angle, stress.sel(fibre=fibre), color="C3", ls=style,
-                 label=f"fibre y/h = {fibre:+g}")
-    ax1.legend(fontsize=7, loc="best")
-    ax1.set_ylabel(f"{body} mid-span\nstress [MPa]")
-    ax2.plot(angle, defl, color="C0")
-    ax2.set_ylabel(f"{body} mid-span\ndeflection [mm]")
-    ax2.set_xlabel("crank angle from start of the cycle [deg]")
-    for ax in (ax1, ax2):
-        ax.axvline(angle[worst], color="0.4", lw=0.8, ls="--")
-        ax.grid(True, lw=0.3)
-    ax1.label_outer()
-    # linkage at the worst instant
-    ax3 = fig.add_subplot(grid[:, 1])
-    mech = "slider_crank" if "rod" in links else "four_bar"
-    topo = topology(mech)
-    pos = ds.joint_position.isel(step=worst)
-    size = float(np.ptp(ds.joint_position.values[..., 0])) + 1e-9
-    size = max(size, float(np.ptp(ds.joint_position.values[..., 1])))
-    w = ds.deflection.isel(step=worst)
-    factor = magnification(float(abs(ds.deflection).max()), size)
-    s = ds.station.values
-    for name in links:
-        a, b = (pos.sel(joint=j).values for j in topo.links[name])
-        ax3.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round",
-                 label="rigid" if name == links[0] else None)
-        chord = b - a
-        normal = np.array([-chord[1], chord[0]]) / (np.hypot(*chord) or 1.0)
-        line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
-        ax3.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
-                 label=f"deformed (×{factor:g})" if name == links[0] else None)
-    xy = pos.values
-    ax3.plot(xy[:, 0], xy[:, 1], "ko", ms=4)
-    for j, (px, py) in zip(pos.joint.values, xy):
-        ax3.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
-    ax3.set_aspect("equal")
-    ax3.legend(fontsize=7, loc="best")
-    ax3.set_title(f"at the worst instant ({angle[worst]:.0f}°), deflection ×{factor:g}",
-                  fontsize=9)
-    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
-                         if k in ds.coords and ds[k].ndim == 0)
-
-    status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
-    fig.suptitle(f"{family}, worst case {case}: {geometry} m, {ds.material.item()}, "
-                 f"Ω = {float(ds.speed):g} rad/s, peak stress "
-                 f"{float(ds.peak_stress.max()) / 1e6:.4g} MPa\nstatus: "
-                 f"{', '.join(status_names(status))}; deflection magnified ×{factor:g}",
+            for kind, case in cases.items():
+                if case in chunk.case.values:
+                    data[kind] = chunk.sel(case=case).load()
+    missing = set(cases) - set(data)
+    if missing:
+        raise ValueError(f"worst_case_figure: case(s) {[cases[k] for k in missing]} are in "
+                         "none of the chunk files")
+    kinds = [k for k in ("credible", "flagged") if k in data]
+    fig = plt.figure(figsize=(11, 4.0 * len(kinds) + 0.4), constrained_layout=True)
+    grid = fig.add_gridspec(len(kinds), 2, width_ratios=(1.25, 1))
+    for row, kind in enumerate(kinds):
+        ds = data[kind]
+        status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
+        error = float(ds.error_estimate) if "error_estimate" in ds else float("nan")
+        if kind == "credible":
+            why = "status: " + ", ".join(status_names(status))
+        else:
+            why = "NOT a design answer: " + credibility([status], [error], error_tolerance)[0]
+        _case_row(fig, grid, row, ds, f"worst {kind}", why)
+    absent = [f"no {k} case in this family" for k in ("credible", "flagged") if k not in data]
+    fig.suptitle(f"{family}: the worst credible and the worst flagged case by peak stress"
+                 f"{' (' + '; '.join(absent) + ')' if absent else ''}\ncredible: none of "
+                 f"{', '.join(NOT_CREDIBLE)}, error estimate ≤ {100 * error_tolerance:g} %",
                  fontsize=9)
     save(fig, png, svg)

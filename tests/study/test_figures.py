@@ -12,6 +12,7 @@ from ced.study.safe_speed import write_safe_speed_table
 from ced.study.cases import chunks
 from ced.study.chunk_job import run_chunk
 from ced.io import open_dataset
+from ced.problem.status import STATUS_FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -62,25 +63,46 @@ def test_worst_case_figure(maps, family):
     worst_case_figure(summary, paths, png)
     assert written(png)
     text = png.with_suffix(".svg").read_text()
-    assert "magnified" in text or "×" in text
+    assert "deflection ×" in text and "worst" in text
 
 
-def test_worst_case_is_largest_design_case(maps):
-    # Failed (16), resonant (4), parametrically unstable (8) and large-deflection (1) cases
-    # are not design answers.
-    from ced.study.figures import _worst_case
+def test_worst_cases_are_the_largest_credible_and_flagged(maps):
+    # credible: no flag of NOT_CREDIBLE and an error estimate within the tolerance
+    from ced.study.figures import worst_cases
 
     _, out = maps
     with open_dataset(out["crank_rocker"][0]) as ds:
         ds = ds.load()
-    stress = ds.peak_stress.max("link").values.copy()
-    stress[(ds.status.values.astype(int) & (1 | 4 | 8 | 16)) != 0] = -np.inf
+    stress = ds.peak_stress.max("link").values
+    ds["error_estimate"][:] = 0.01
+    ds["status"][:] = 0
     top = int(np.argmax(stress))
-    assert _worst_case(ds) == int(ds.case[top])
-    ds["status"] = ds.status.copy(data=np.where(np.arange(ds.sizes["case"]) == top, 16,
-                                                ds.status.values).astype(ds.status.dtype))
-    stress[top] = -np.inf
-    assert _worst_case(ds) == int(ds.case[int(np.argmax(stress))])
+    assert worst_cases(ds) == {"credible": int(ds.case[top])}
+    ds["status"][top] = STATUS_FLAGS["large_deflection"]
+    second = int(np.argsort(stress)[-2])
+    assert worst_cases(ds) == {"credible": int(ds.case[second]), "flagged": int(ds.case[top])}
+    ds["error_estimate"][second] = 0.2  # above the tolerance: flagged too
+    third = int(np.argsort(stress)[-3])
+    assert worst_cases(ds, 0.05) == {"credible": int(ds.case[third]),
+                                     "flagged": int(ds.case[top])}
+    assert worst_cases(ds, 0.5)["credible"] == int(ds.case[second])
+
+
+def test_worst_case_title_peak_is_the_drawn_curve_peak(maps):
+    directory, out = maps
+    summary, _, paths = out["crank_rocker"]
+    png = directory / "worst" / "peaks.png"
+    worst_case_figure(summary, paths, png, error_tolerance=1.0)  # every unflagged case
+    text = png.with_suffix(".svg").read_text()
+    from ced.study.figures import worst_cases
+    with open_dataset(summary) as s:
+        case = worst_cases(s.load(), 1.0)["credible"]
+    for path in paths:
+        with open_dataset(path) as chunk:
+            if case in chunk.case.values:
+                drawn = float(abs(chunk.stress.sel(case=case)).max()) / 1e6
+    assert f"peak of the curve {drawn:.4g} MPa" in text
+    assert "x [m]" in text and "y [m]" in text
 
 
 def test_magnification_is_round():

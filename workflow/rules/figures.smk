@@ -70,7 +70,7 @@ rule resonance_map:
 
 
 rule worst_case_figure:
-    """Time history and deformed linkage of the case with the family's largest peak stress."""
+    """Stress history and deformed linkage of the family's worst credible and flagged cases."""
     input:
         summary="results/{study}/maps/{family}.nc",
         chunks=lambda wildcards: expand(
@@ -94,6 +94,8 @@ rule worst_case_figure:
         ),
     log:
         "results/{study}/logs/figures/worst_case/{family}.log",
+    params:
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/worst_case_figure.py"
 
