@@ -16,11 +16,8 @@ from ..problem.status import STATUS_FILL, status_names  # noqa: E402
 from .safe_speed import NOT_CREDIBLE, credibility  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
-           "resonance_map", "map_slice", "worst_case_figure", "worst_cases", "magnification", "HARMONICS",
-           "MAP_HARMONICS"]
-
-#: Harmonics k of the curves k·Ω/2π = f_1 on resonance maps.
-MAP_HARMONICS = tuple(range(1, 6))
+           "worst_case_figure", "worst_cases", "magnification", "plain_ticks", "rpm_axis",
+           "HARMONICS"]
 
 #: Crank harmonics k·Ω/2π drawn on Campbell diagrams.
 HARMONICS = tuple(range(1, 11))
@@ -48,6 +45,44 @@ def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
     fig.savefig(png, dpi=120, bbox_inches="tight")
     fig.savefig(svg, bbox_inches="tight", metadata={"Date": None})  # reproducible SVG
     plt.close(fig)
+
+
+def plain_ticks(axis) -> None:
+    """Plain numbers (20, 50, 100) instead of 2×10¹ on a (log) axis or colorbar axis.
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis``, ``ax.yaxis`` or ``colorbar.ax.yaxis``.
+    """
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    if axis.get_scale() == "log":
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_minor_formatter(NullFormatter())
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+
+
+def rpm_axis(ax, label: str = "input speed [rpm]"):
+    """A secondary x axis on top in rpm for an x axis in rad/s.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes whose x is an input speed in rad/s.
+    label : str
+        Label of the rpm axis.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The secondary axis.
+    """
+    scale = 60.0 / (2.0 * np.pi)
+    top = ax.secondary_xaxis("top", functions=(lambda w: w * scale, lambda n: n / scale))
+    top.set_xlabel(label, fontsize=8)
+    top.tick_params(labelsize=7)
+    return top
 
 
 def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
@@ -278,133 +313,6 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
     save(fig, png, svg)
-
-
-# ------------------------------------------------------------------------------ resonance maps
-_MAP_LENGTHS = ("crank", "coupler", "rocker", "rod", "offset")
-
-
-def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset, str, dict]:
-    """The (speed × length) slice of a family grid drawn on its resonance map.
-
-    The y axis is the length dimension with the most values that hold cases (ties: the larger
-    range); the material is ``material`` (default the first of the grid), the section the
-    first; every other length is fixed at the value whose slice holds the most cases (ties:
-    the median of those values). Returns the slice, the y name and the fixed values.
-
-    Parameters
-    ----------
-    grid : xarray.Dataset
-        A family's grid map (``maps/<family>_grid.nc``).
-    material : str, optional
-        The material of the slice.
-    """
-    material = str(grid.material.values[0]) if material is None else material
-    has = np.isfinite(grid["case"]).sel(material=material)
-    if "section" in has.dims:
-        has = has.isel(section=0)
-    lengths = [d for d in _MAP_LENGTHS if d in grid.dims]
-    def spread(d):
-        used = has.any([x for x in has.dims if x != d])
-        values = grid[d].values[used.values]
-        return (int(used.sum()), float(np.ptp(values)) if values.size else 0.0)
-    y = max(lengths, key=spread)
-    fixed: dict = {"material": material}
-    if "section" in grid.dims:
-        fixed["section"] = grid.section.values[0].item()
-    rest = has.sel(speed=has.speed)  # all speeds
-    for d in lengths:
-        if d == y:
-            continue
-        count = rest.sum([x for x in rest.dims if x != d])
-        best = grid[d].values[(count == count.max()).values]
-        value = best[len(best) // 2].item()
-        fixed[d] = value
-        rest = rest.sel({d: value})
-    return grid.sel(fixed), y, fixed
-
-
-def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = None,
-                  material: str | None = None) -> None:
-    """Resonance map of one family from its grid file: speed × one length, colour = peak
-    stress (max over links, log scale; peak input torque where no stress was computed).
-
-    Overlaid: the speeds Ω = 2π f_1 / k at which the crank harmonic k·Ω/2π meets the first
-    natural frequency f_1, k = 1…5 (solid: lowest f_1 over the cycle, dotted: highest,
-    each the median over the speeds of the slice); crosses: cases flagged resonant or
-    parametrically unstable; hatched: no case. Slice chosen by :func:`map_slice`.
-
-    Parameters
-    ----------
-    path : str or Path
-        The family's grid file.
-    png : str or Path
-        The PNG file written.
-    svg : str or Path, optional
-        The SVG file written (default: ``png`` with ``.svg``).
-    material : str, optional
-        The material of the slice (default: the grid's first).
-    """
-    from matplotlib.colors import LogNorm
-
-    with open_dataset(path) as grid:
-        grid = grid.load()
-    family = str(grid.family.values) if "family" in grid.coords else Path(path).stem
-    sl, y, fixed = map_slice(grid, material)
-    if "peak_stress" in sl:
-        value, label = sl.peak_stress.max("link") / 1e6, "peak stress, max over links [MPa]"
-    else:
-        value, label = sl.peak_input_torque, "peak input torque [N m]"
-    value = value.transpose(y, "speed")
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
-    v = value.values
-    positive = v[np.isfinite(v) & (v > 0)]
-    norm = LogNorm(positive.min(), positive.max()) if positive.size else None
-    speeds, ys = sl.speed.values, sl[y].values
-    ax.set_facecolor("0.92")
-    mesh = ax.pcolormesh(_edges(speeds), _edges(ys), np.ma.masked_invalid(v), norm=norm,
-                         cmap="viridis", shading="flat")
-    fig.colorbar(mesh, ax=ax, label=label)
-    if "status" in sl:
-        bits = np.nan_to_num(sl.status.transpose(y, "speed").values, nan=0).astype(int)
-        bad = ((bits & (4 | 8)) > 0) & (bits != STATUS_FILL)
-        if bad.any():
-            yy, xx = np.nonzero(bad)
-            ax.plot(speeds[xx], ys[yy], "x", color="r", ms=6, label="resonant / unstable")
-    if "natural_frequency_min" in sl:
-        f_lo = sl.natural_frequency_min.isel(mode=0).transpose(y, "speed").median("speed")
-        f_hi = sl.natural_frequency_max.isel(mode=0).transpose(y, "speed").median("speed")
-        for k in MAP_HARMONICS:
-            for f, ls in ((f_lo, "-"), (f_hi, ":")):
-                omega = 2.0 * np.pi * f.values / k
-                ok = np.isfinite(omega) & (omega > 0)
-                ax.plot(omega[ok], ys[ok], ls, color="w", lw=1.2)
-            ok = np.isfinite(f_lo.values) & (f_lo.values > 0)
-            if ok.any():
-                i = np.flatnonzero(ok)[-1]
-                x = 2.0 * np.pi * f_lo.values[i] / k
-                if _edges(speeds)[0] < x < _edges(speeds)[-1]:
-                    ax.text(x, ys[i], f"k={k}", color="w", fontsize=7, ha="left", va="bottom")
-    ax.set_xlim(_edges(speeds)[0], _edges(speeds)[-1])
-    ax.set_ylim(_edges(ys)[0], _edges(ys)[-1])
-    ax.set_xlabel("input speed Ω [rad/s]")
-    ax.set_ylabel(f"{y} length [m]")
-    shown = ", ".join(f"{k} {v:g} m" if k in _LENGTHS else f"{k} {v}" for k, v in fixed.items())
-    ax.set_title(f"{family}: {shown}\nwhite: k·Ω/2π = f₁, k = {MAP_HARMONICS[0]}…"
-                 f"{MAP_HARMONICS[-1]} (solid min, dotted max of f₁ over the cycle)",
-                 fontsize=8)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper right")
-    save(fig, png, svg)
-
-
-def _edges(values: np.ndarray) -> np.ndarray:
-    """Cell edges around sorted centres (half a step beyond the ends)."""
-    values = np.asarray(values, float)
-    if values.size == 1:
-        return np.array([values[0] * 0.9, values[0] * 1.1]) if values[0] else np.array([-1, 1.])
-    mid = (values[1:] + values[:-1]) / 2.0
-    return np.concatenate([[2 * values[0] - mid[0]], mid, [2 * values[-1] - mid[-1]]])
 
 
 # ------------------------------------------------------------------------------ worst case

@@ -5,13 +5,14 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.study.figures import (campbell_figure, magnification, map_slice, overview_figure,
-                               resonance_map, worst_case_figure)
+from ced.study.figures import campbell_figure, magnification, overview_figure, worst_case_figure
+from ced.study.resonance_maps import map_slice, resonance_map
 from ced.study.maps import reduce_family
 from ced.study.safe_speed import write_safe_speed_table
 from ced.study.cases import chunks
 from ced.study.chunk_job import run_chunk
 from ced.io import open_dataset
+from ced.problem.errors import SceneError
 from ced.problem.status import STATUS_FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,21 +39,50 @@ def written(png: Path) -> bool:
 
 
 @pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
-def test_resonance_map(maps, family):
+def test_resonance_map_has_a_panel_per_material(maps, family):
     directory, out = maps
     png = directory / "resonance" / f"{family}.png"
-    resonance_map(out[family][1], png, material="steel")
+    resonance_map(out[family][1], png)
     assert written(png)
+    text = png.with_suffix(".svg").read_text()
+    for material in ("steel", "aluminium"):  # both halves of the study
+        assert material in text
+    assert "rpm" in text
+    # the harmonic speeds beyond the grid are named, not silently absent
+    assert "above the speed range" in text or "k=" in text
 
 
 def test_map_slice_picks_the_varied_length(maps):
     _, out = maps
     with open_dataset(out["crank_rocker"][1]) as grid:
-        sl, y, fixed = map_slice(grid.load())
+        grid = grid.load()
+    sl, y, fixed = map_slice(grid)
     # crank_rocker of the test study: crank 0.05, coupler 0.2, rocker 0.15 / 0.2
     assert y == "rocker" and fixed["material"] == "aluminium"
     assert fixed["crank"] == 0.05 and fixed["coupler"] == 0.2
     assert set(sl.dims) >= {"rocker", "speed"} and "crank" not in sl.dims
+    # the config's slice: y and fixed values; a value off the grid is refused by name
+    sl, y, fixed = map_slice(grid, "steel", 0, y="coupler", fixed={"rocker": 0.15})
+    assert y == "coupler" and fixed["rocker"] == 0.15 and fixed["material"] == "steel"
+    with pytest.raises(SceneError, match="resonance_map.fixed.rocker") as err:
+        map_slice(grid, fixed={"rocker": 0.17})
+    assert "0.15, 0.2" in err.value.message
+
+
+def test_one_dimensional_sweep_is_drawn_as_lines(maps):
+    directory, out = maps
+    # slider_crank of the test study: one geometry, two speeds -> a sweep, not a 1-row map
+    png = directory / "resonance" / "sweep.png"
+    resonance_map(out["slider_crank"][1], png)
+    text = png.with_suffix(".svg").read_text()
+    assert "peak stress (dot: a case)" in text
+
+
+def test_harmonic_speeds():
+    from ced.study.resonance_maps import harmonic_speeds
+    omega = harmonic_speeds(np.array([10.0, -1.0]))
+    assert omega[0, 0] == pytest.approx(2 * np.pi * 10) and np.isnan(omega[:, 1]).all()
+    assert omega[4, 0] == pytest.approx(2 * np.pi * 10 / 5)
 
 
 @pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])

@@ -45,7 +45,7 @@ rule campbell_figure:
 
 
 rule resonance_map:
-    """Resonance map of one family: speed x one length, peak stress, harmonics k*Omega/2pi = f1."""
+    """Resonance map of one family: a panel per material and section, harmonics k*Omega/2pi = f1."""
     input:
         "results/{study}/maps/{family}_grid.nc",
     output:
@@ -64,7 +64,9 @@ rule resonance_map:
     log:
         "results/{study}/logs/figures/resonance/{family}.log",
     params:
-        material=config["materials"][0] if isinstance(config["materials"][0], str) else None,
+        y=config["resonance_map"].get("y"),
+        fixed=config["resonance_map"].get("fixed"),
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/resonance_map.py"
 
