@@ -86,10 +86,11 @@ def rpm_axis(ax, label: str = "input speed [rpm]"):
 
 
 def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
-    """Peak input torque (and peak stress where present) against speed, one panel a family.
+    """Peak input torque (and peak stress where present) against speed, one column a family.
 
-    Cases with status ok are drawn in colour, flagged ones in grey (failed cases, with no
-    values, are left out).
+    One colour a material; cases with status ok filled, flagged ones hollow (failed cases,
+    with no values, are left out). On the stress panels, dashed in the material's colour: its
+    yield strength over the study's stress safety factor (the allowable peak stress).
 
     Parameters
     ----------
@@ -103,28 +104,59 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     datasets = [open_dataset(p) for p in paths]
     has_stress = any("peak_stress" in ds for ds in datasets)
     rows = 2 if has_stress else 1
-    fig, axes = plt.subplots(rows, len(datasets), figsize=(3.2 * len(datasets), 3.0 * rows),
+    materials = list(dict.fromkeys(m for ds in datasets for m in ds.material.values.tolist()))
+    colour = {m: f"C{i}" for i, m in enumerate(materials)}
+    fig, axes = plt.subplots(rows, len(datasets), figsize=(3.4 * len(datasets), 3.2 * rows),
                              squeeze=False, constrained_layout=True)
     for col, ds in enumerate(datasets):
         family = str(ds.family.values[0])
         ok = (np.nan_to_num(ds.status.values) == 0) if "status" in ds else np.ones(
             ds.sizes["case"], bool)
-        panels = [(ds.peak_input_torque, "peak input torque [N m]", "C0")]
+        panels = [(ds.peak_input_torque, "peak input torque [N m]")]
         if has_stress and "peak_stress" in ds:
-            panels.append((ds.peak_stress.max("link") / 1e6, "peak stress [MPa]", "C3"))
-        for row, (values, label, colour) in enumerate(panels):
+            panels.append((ds.peak_stress.max("link") / 1e6, "peak stress [MPa]"))
+        for row, (values, label) in enumerate(panels):
             ax = axes[row, col]
             finite = _finite(values)
-            for mask, c, name in ((finite & ~ok, "0.6", "flagged"), (finite & ok, colour, "ok")):
-                ax.scatter(ds.speed[mask], values[mask], s=6, alpha=0.5, color=c,
-                           label=f"{name} ({int(mask.sum())})")
+            for m in materials:
+                mine = finite & (ds.material == m).values
+                ax.scatter(ds.speed[mine & ok], values[mine & ok], s=7, alpha=0.6,
+                           color=colour[m], label=f"{m}, ok ({int((mine & ok).sum())})")
+                ax.scatter(ds.speed[mine & ~ok], values[mine & ~ok], s=7, alpha=0.5,
+                           facecolors="none", edgecolors=colour[m], lw=0.6,
+                           label=f"{m}, flagged ({int((mine & ~ok).sum())})")
+                if row == 1:
+                    _allowable_line(ax, ds, m, colour[m])
             ax.set_xlabel("speed [rad/s]")
             ax.set_ylabel(label)
             _log_if_positive(ax, values[finite])
-            ax.legend(fontsize=6, loc="upper left", markerscale=1.5)
+            plain_ticks(ax.yaxis)
+        rpm_axis(axes[0, col], "speed [rpm]")
         axes[0, col].set_title(f"{family} ({ds.sizes['case']} cases)", fontsize=9)
         ds.close()
+    labels = {}
+    for ax in axes.flat:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            labels.setdefault(label.split(" (")[0] if "yield" not in label else label, handle)
+    fig.legend(labels.values(), labels.keys(), loc="outside lower center",
+               ncols=min(4, len(labels)), fontsize=7, markerscale=2)
     save(fig, png, svg)
+
+
+def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
+    """Yield strength / stress safety factor of ``material``, dashed, where known."""
+    from ..problem.errors import SceneError
+    from ..problem.materials import resolve_material
+
+    factor = (ds.stress_utilisation.attrs.get("stress_safety_factor")
+              if "stress_utilisation" in ds else None)
+    try:
+        strength = resolve_material(material)["yield_strength"]
+    except SceneError:  # an inline material: not in the library
+        strength = None
+    if factor and strength:
+        ax.axhline(strength / factor / 1e6, color=colour, ls="--", lw=0.9,
+                   label=f"{material}: yield / {factor:g} = {strength / factor / 1e6:.4g} MPa")
 
 
 #: Error estimates marked on :func:`estimate_figure` (relative).
@@ -263,7 +295,7 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
         return
     materials = list(dict.fromkeys(ds.material.values.tolist()))
     geometry = representative_geometry(ds)
-    fig, axes = plt.subplots(1, len(materials), figsize=(5.0 * len(materials), 4.2),
+    fig, axes = plt.subplots(1, len(materials), figsize=(5.0 * len(materials) + 2.2, 4.4),
                              squeeze=False, sharey=True, constrained_layout=True)
     speeds = np.unique(ds.speed.values)
     omega = np.linspace(0.0, speeds.max() * 1.05, 50)
@@ -301,14 +333,22 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
             y_end = k * omega[-1] / (2.0 * np.pi)
             if ylow < y_end < yhigh:
                 ax.text(omega[-1], y_end, f" {k}×", fontsize=7, va="center", color="0.3")
+        below = [k for k in HARMONICS if k * omega[-1] / (2.0 * np.pi) < ylow]
+        if below:  # not drawn inside the axes: say so rather than leave them silently absent
+            ax.text(0.02, 0.02, f"harmonics k = {below[0]}…{below[-1]} below the axis "
+                    f"(≤ {below[-1] * omega[-1] / (2.0 * np.pi):.3g} Hz)", fontsize=7,
+                    transform=ax.transAxes, color="0.3")
         ax.set_yscale("log")
         ax.set_ylim(ylow, yhigh)
+        plain_ticks(ax.yaxis)
         ax.set_xlim(0.0, omega[-1] * 1.08)
         ax.set_xlabel("input speed Ω [rad/s]")
+        rpm_axis(ax)
         ax.set_title(f"{material}", fontsize=9)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
     axes[0, 0].set_ylabel("natural frequency [Hz]")
-    axes[0, 0].legend(fontsize=7, loc="lower right")
+    # outside the data: inside, it covered the first mode's band
+    axes[0, -1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     shown = ", ".join(f"{k} {v:g}" for k, v in geometry.items())
     fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
