@@ -34,8 +34,8 @@ import numpy as np
 import rainflow
 import xarray as xr
 
-__all__ = ["MEAN_STRESS_CORRECTION", "periodic_cycles", "goodman_safety_factor",
-           "fatigue_safety_factor", "case_fatigue"]
+__all__ = ["MEAN_STRESS_CORRECTION", "STRENGTHS", "periodic_cycles", "goodman_safety_factor",
+           "fatigue_safety_factor", "link_strengths", "case_fatigue"]
 
 #: The mean-stress correction applied (the ``mean_stress_correction`` attribute of the result).
 MEAN_STRESS_CORRECTION = "goodman"
@@ -132,20 +132,41 @@ def fatigue_safety_factor(history, endurance_limit: float, ultimate_strength: fl
                                        ultimate_strength).min())
 
 
-def _strengths(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray] | None:
-    """(case, link) endurance limit and tensile strength from the scenes stored with a chunk,
-    NaN where the material has none."""
-    if "scenes" not in ds.attrs:
+#: Material strengths carried per case and link (:func:`link_strengths`), Pa.
+STRENGTHS = ("yield_strength", "ultimate_strength", "endurance_limit")
+
+
+def link_strengths(ds: xr.Dataset) -> xr.Dataset | None:
+    """Material strengths of every case and link, from the dataset's variables of that name
+    (a study opened by :func:`ced.study.browse.open_study`) or else from the scenes stored
+    with a chunk (its ``scenes`` attribute).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A chunk dataset (or a block of cases of an opened study).
+
+    Returns
+    -------
+    xarray.Dataset or None
+        :data:`STRENGTHS`, each (case, link), Pa, NaN where the material has none; None
+        without either source.
+    """
+    if all(name in ds for name in STRENGTHS):
+        return ds[list(STRENGTHS)]
+    if "scenes" not in ds.attrs or "link" not in ds.dims:
         return None
     scenes = json.loads(ds.attrs["scenes"])
     if len(scenes) != ds.sizes["case"]:
         return None
     links = [str(n) for n in ds.link.values]
-    out = []
-    for key in ("endurance_limit", "ultimate_strength"):
-        out.append(np.array([[s["links"][n]["material"].get(key) or np.nan for n in links]
-                             for s in scenes], float))
-    return out[0], out[1]
+    meaning = {"yield_strength": "yield strength", "ultimate_strength": "tensile strength",
+               "endurance_limit": "endurance limit"}
+    return xr.Dataset({
+        name: (("case", "link"), np.array(
+            [[s["links"][n]["material"].get(name) or np.nan for n in links] for s in scenes],
+            float), {"units": "Pa", "long_name": f"{meaning[name]} of the link material"})
+        for name in STRENGTHS}, coords={"case": ds.case, "link": ds.link})
 
 
 def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
@@ -172,10 +193,11 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
     """
     if "stress" not in ds or "fibre" not in ds.stress.dims:
         return None
-    strengths = _strengths(ds)
+    strengths = link_strengths(ds)
     stress = ds.stress.transpose("case", "link", "station", "step", "fibre").values
     ncase, nlink = stress.shape[:2]
-    endurance, ultimate = strengths if strengths else (np.full((ncase, nlink), np.nan),) * 2
+    endurance, ultimate = ((strengths.endurance_limit.values, strengths.ultimate_strength.values)
+                           if strengths is not None else (np.full((ncase, nlink), np.nan),) * 2)
     peak = np.abs(stress).max(axis=(3, 4))  # (case, link, station)
     critical = np.nan_to_num(peak, nan=-1.0).argmax(axis=2)
     factor = np.full((ncase, nlink), np.nan)
