@@ -46,7 +46,7 @@ def test_check_prints_the_study_size(capsys):
     out = capsys.readouterr().out
     assert "cases: 11536 (12176 grid points" in out
     assert "chunk jobs: 27 (" in out
-    assert "estimated output: 1.3 GB uncompressed" in out
+    assert "estimated output: 1.5 GB uncompressed" in out  # stress at two fibres
     assert "estimated peak memory per chunk job: " in out
 
 

@@ -75,13 +75,13 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
     "discretization_auto": (
-        ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
+        ("case",), "", "discretization chosen for the tolerance (JSON; null if not auto)", "str"),
     "error_estimate": (
         ("case",), "1",
         "estimated relative discretization error of the case's peak stress", _F64),
     "effects_auto": (
         ("case",), "", "effects chosen by effects: auto, with the estimated relative "
-        "contribution of each (JSON)", "str"),
+        "contribution of each (JSON; null if not auto)", "str"),
     "status": (("case",), "1", "case status flags", STATUS_DTYPE),
     "message": (("case",), "", "diagnostic message: why a failed case failed, else its "
                 "status flags (ok when none)", "str"),
@@ -221,6 +221,8 @@ def make_dataset(
                               dtype=object)
         if dtype == "str":
             values = values.astype(object)
+            if name.endswith("_auto"):  # JSON: a case not chosen automatically reads null
+                values = np.array([v or "null" for v in values.tolist()], dtype=object)
         else:
             with np.errstate(over="ignore"):  # a failed case may overflow float32: inf
                 values = values.astype(dtype)

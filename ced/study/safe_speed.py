@@ -333,7 +333,9 @@ def write_safe_speed_table(paths: list[str], csv: str, markdown: str,
 
 def _markdown(table) -> str:
     def cell(v):
-        return f"{v:.4g}" if isinstance(v, float) else str(v)
+        if isinstance(v, float):
+            return "—" if np.isnan(v) else f"{v:.4g}"  # a length the family does not have
+        return str(v)
 
     out = ["| " + " | ".join(table.columns) + " |", "|" + "---|" * len(table.columns)]
     out += ["| " + " | ".join(cell(v) for v in row) + " |"
