@@ -1,4 +1,5 @@
-"""netCDF files: atomic writes of ced's datasets, and output paths checked before any work.
+"""netCDF files: atomic CF writes of ced's datasets and reads that restore their labels, and
+output paths checked before any work.
 
 Write with ``engine="netcdf4"``, zlib level 4 with shuffle, chunks along ``case``; a temporary
 file in the same directory is renamed over the target, so a reader sees either the old file
@@ -184,7 +185,9 @@ def _encoding(ds: xr.Dataset) -> dict:
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` atomically (temporary file in the same directory, then rename).
+    """Write ``ds`` to ``path`` atomically (temporary file in the same directory, then rename),
+    its text dimension coordinates as CF wants them (:func:`to_cf`; read back with
+    :func:`open_dataset`).
 
     Overwriting an open file in place can truncate it (xarray #10679); a reader either sees the
     old file or the complete new one, and a write killed half way leaves only a temp file,

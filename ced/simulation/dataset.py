@@ -282,6 +282,7 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     topo = topology(kind)
     # The material and section of the first flexible link describe the case (all links if rigid).
     link = next((n for n in topo.links if scenes[0]["links"][n]["flexible"]), topo.link_names[0])
+
     def holders(key: str) -> str:
         """The links whose ``key`` (material, section) is the described one in every case."""
         same = [n for n in topo.link_names

@@ -20,7 +20,8 @@ from ..problem.scene import load_scene
 from ..response.batch import make_batch
 from ..simulation.simulate import solve_batch
 
-__all__ = ["ladder_figure", "REFERENCE_RUNG", "RUNGS", "run_rung", "run_ladder", "write_ladder", "run_scene_ladder"]
+__all__ = ["RUNGS", "REFERENCE_RUNG", "run_rung", "run_ladder", "write_ladder", "ladder_figure",
+           "run_scene_ladder"]
 
 #: name -> (formulation, effects to remove from the scene, element counts to try)
 RUNGS = {
@@ -140,8 +141,6 @@ def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
     directory : str or Path
         Target folder (created if missing).
     """
-    from .figures import save
-
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "ladder.json").write_text(json.dumps(results, indent=2) + "\n")

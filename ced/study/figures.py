@@ -12,7 +12,7 @@ import xarray as xr  # noqa: E402
 
 from ..io import open_dataset  # noqa: E402
 from ..problem.mechanism import topology  # noqa: E402
-from ..problem.status import STATUS_FILL, status_names  # noqa: E402
+from ..problem.status import status_names  # noqa: E402
 from .safe_speed import NOT_CREDIBLE, credibility  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
