@@ -203,8 +203,9 @@ def ladder_figure(results: dict[str, dict], png: str | Path) -> None:
         error = abs(done[n]["peak_stress"] / reference["peak_stress"] - 1.0)
         time = 1e3 * done[n]["solve_time"]
         ax3.plot(time, 100 * max(error, 1e-4), "o", color=f"C{i}")
+        # alternate above and below: rungs of equal error and similar time would overlap
         ax3.annotate(f"{n} ({100 * error:.2g} %)", (time, 100 * max(error, 1e-4)),
-                     textcoords="offset points", xytext=(5, 3), fontsize=7)
+                     textcoords="offset points", xytext=(5, 4 if i % 2 else -10), fontsize=7)
     ax3.axvline(1e3 * reference["solve_time"], color="0.5", ls="--", lw=0.8)
     ax3.text(1e3 * reference["solve_time"], 1.0, f" {ref_name}", rotation=90, fontsize=7,
              va="top", transform=ax3.get_xaxis_transform(), color="0.4")

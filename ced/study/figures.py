@@ -48,17 +48,22 @@ def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
 
 
 def plain_ticks(axis) -> None:
-    """Plain numbers (20, 50, 100) instead of 2×10¹ on a (log) axis or colorbar axis.
+    """Plain numbers (20, 50, 100) instead of 2×10¹ on a (log) axis or colorbar axis: ticks at
+    1, 2, 5 × 10ⁿ over up to three decades, at the decades beyond.
 
     Parameters
     ----------
     axis : matplotlib.axis.Axis
-        ``ax.xaxis``, ``ax.yaxis`` or ``colorbar.ax.yaxis``.
+        ``ax.xaxis``, ``ax.yaxis`` or ``colorbar.ax.yaxis``, its limits set.
     """
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     if axis.get_scale() == "log":
-        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.axes.autoscale_view()
+        low, high = sorted(axis.get_view_interval())
+        decades = np.log10(high / low) if low > 0 else np.inf
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0) if decades <= 3 else (1.0,),
+                                          numticks=8))
         axis.set_minor_formatter(NullFormatter())
     axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
 
@@ -130,6 +135,7 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
             ax.set_xlabel("speed [rad/s]")
             ax.set_ylabel(label)
             _log_if_positive(ax, values[finite])
+            _clip_flagged(ax, values.values, finite & ok, finite & ~ok)
             plain_ticks(ax.yaxis)
         rpm_axis(axes[0, col], "speed [rpm]")
         axes[0, col].set_title(f"{family} ({ds.sizes['case']} cases)", fontsize=9)
@@ -141,6 +147,19 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     fig.legend(labels.values(), labels.keys(), loc="outside lower center",
                ncols=min(4, len(labels)), fontsize=7, markerscale=2)
     save(fig, png, svg)
+
+
+def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray) -> None:
+    """Keep the axis on the unflagged cases: flagged ones far above them (a blown-up resonant
+    or unstable response) would squeeze the rest into a line; they are counted instead."""
+    if not ok.any() or ax.get_yscale() != "log":
+        return
+    top = 5.0 * float(np.nanmax(values[ok]))
+    above = int((flagged & (values > top)).sum())
+    if above:
+        ax.set_ylim(top=top)
+        ax.text(0.98, 0.98, f"▲ {above} flagged above", transform=ax.transAxes, fontsize=6,
+                ha="right", va="top", color="0.3")
 
 
 def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
@@ -335,7 +354,8 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
                 ax.text(omega[-1], y_end, f" {k}×", fontsize=7, va="center", color="0.3")
         below = [k for k in HARMONICS if k * omega[-1] / (2.0 * np.pi) < ylow]
         if below:  # not drawn inside the axes: say so rather than leave them silently absent
-            ax.text(0.02, 0.02, f"harmonics k = {below[0]}…{below[-1]} below the axis "
+            ks = f"{below[0]}…{below[-1]}" if len(below) > 1 else f"{below[0]}"
+            ax.text(0.02, 0.02, f"harmonics k = {ks} below the axis "
                     f"(≤ {below[-1] * omega[-1] / (2.0 * np.pi):.3g} Hz)", fontsize=7,
                     transform=ax.transAxes, color="0.3")
         ax.set_yscale("log")
@@ -441,6 +461,7 @@ def _case_row(fig, grid, row: int, ds: xr.Dataset, kind: str, why: str) -> None:
     ax.axvline(angle[worst], color="0.4", lw=0.8, ls=":", label="instant drawn right")
     ax.axhline(0.0, color="0.6", lw=0.5)
     ax.set_ylabel(f"stress, {link} at\nstation {station:g} [MPa]")
+    plain_ticks(ax.yaxis)  # no "1e8" offset above the axis: a blown-up case reads as such
     ax.set_xlabel("crank angle from start of the cycle [deg]")
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
