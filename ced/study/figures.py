@@ -135,7 +135,8 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
             ax.set_xlabel("speed [rad/s]")
             ax.set_ylabel(label)
             _log_if_positive(ax, values[finite])
-            _clip_flagged(ax, values.values, finite & ok, finite & ~ok)
+            _clip_flagged(ax, values.values, finite & ok, finite & ~ok,
+                          _allowable(ds, materials) if row == 1 else None)
             plain_ticks(ax.yaxis)
         rpm_axis(axes[0, col], "speed [rpm]")
         axes[0, col].set_title(f"{family} ({ds.sizes['case']} cases)", fontsize=9)
@@ -149,12 +150,14 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     save(fig, png, svg)
 
 
-def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray) -> None:
-    """Keep the axis on the unflagged cases: flagged ones far above them (a blown-up resonant
-    or unstable response) would squeeze the rest into a line; they are counted instead."""
+def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray,
+                  allowable: float | None = None) -> None:
+    """Keep the axis within a hundred times the unflagged cases' largest value (and ten times
+    the allowable stress): only blown-up responses (an unstable case at 1e8 MPa) are left
+    above, and counted, so that they do not squeeze the rest — resonance peaks stay drawn."""
     if not ok.any() or ax.get_yscale() != "log":
         return
-    top = 5.0 * float(np.nanmax(values[ok]))
+    top = max(100.0 * float(np.nanmax(values[ok])), 10.0 * (allowable or 0.0))
     above = int((flagged & (values > top)).sum())
     if above:
         ax.set_ylim(top=top)
@@ -162,8 +165,15 @@ def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray) -
                 ha="right", va="top", color="0.3")
 
 
-def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
-    """Yield strength / stress safety factor of ``material``, dashed, where known."""
+def _allowable(ds: xr.Dataset, materials: list[str]) -> float | None:
+    """The largest allowable stress (yield / stress safety factor) of the materials, MPa."""
+    values = [_allowable_stress(ds, m) for m in materials]
+    values = [v for v in values if v]
+    return max(values) if values else None
+
+
+def _allowable_stress(ds: xr.Dataset, material: str) -> float | None:
+    """Yield strength / stress safety factor of ``material``, MPa, where known."""
     from ..problem.errors import SceneError
     from ..problem.materials import resolve_material
 
@@ -173,9 +183,16 @@ def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
         strength = resolve_material(material)["yield_strength"]
     except SceneError:  # an inline material: not in the library
         strength = None
-    if factor and strength:
-        ax.axhline(strength / factor / 1e6, color=colour, ls="--", lw=0.9,
-                   label=f"{material}: yield / {factor:g} = {strength / factor / 1e6:.4g} MPa")
+    return strength / factor / 1e6 if factor and strength else None
+
+
+def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
+    """Yield strength / stress safety factor of ``material``, dashed, where known."""
+    allowable = _allowable_stress(ds, material)
+    if allowable:
+        factor = ds.stress_utilisation.attrs["stress_safety_factor"]
+        ax.axhline(allowable, color=colour, ls="--", lw=0.9,
+                   label=f"{material}: yield / {factor:g} = {allowable:.4g} MPa")
 
 
 #: Error estimates marked on :func:`estimate_figure` (relative).
