@@ -115,7 +115,7 @@ def harmonic_speeds(f1: np.ndarray, harmonics=MAP_HARMONICS) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        Shape (k, *f1.shape), rad/s; NaN where f₁ is not positive.
+        Shape ``(k, *f1.shape)``, rad/s; NaN where f₁ is not positive.
 
     Examples
     --------
