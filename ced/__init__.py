@@ -1,7 +1,9 @@
 """ced — kineto-elasto-dynamics of flexible planar linkages.
 
 High-level API: :func:`simulate` (scenes → xarray dataset), :func:`load_scene`,
-:func:`classify`, :func:`input_limits`, :func:`write_dataset`, :class:`SceneError`. Heavy
+:func:`classify`, :func:`input_limits`, :func:`write_dataset`, :func:`open_dataset` (labels
+of ``link``, ``joint``, ``axis`` restored as indexes), :func:`open_study` (a whole study as one
+lazily loaded dataset), :class:`SceneError`. Heavy
 modules (xarray, the FE machinery) are imported on first use, so ``import ced`` stays light
 for Snakefile parsing.
 
@@ -30,12 +32,14 @@ __version__ = "0.1.0"
 from .problem.mechanism import classify, input_limits  # noqa: E402
 
 __all__ = ["__version__", "classify", "input_limits", "simulate", "load_scene",
-           "write_dataset", "SceneError"]
+           "write_dataset", "open_dataset", "open_study", "SceneError"]
 
 _LAZY = {
     "simulate": ("ced.simulation.simulate", "simulate"),
     "load_scene": ("ced.problem.scene", "load_scene"),
     "write_dataset": ("ced.io", "write_dataset"),
+    "open_dataset": ("ced.io", "open_dataset"),
+    "open_study": ("ced.study.browse", "open_study"),
     "SceneError": ("ced.problem.errors", "SceneError"),
 }
 

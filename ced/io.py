@@ -1,4 +1,5 @@
-"""netCDF files: atomic writes of ced's datasets, and output paths checked before any work.
+"""netCDF files: atomic CF writes of ced's datasets and reads that restore their labels, and
+output paths checked before any work.
 
 Write with ``engine="netcdf4"``, zlib level 4 with shuffle, chunks along ``case``; a temporary
 file in the same directory is renamed over the target, so a reader sees either the old file
@@ -14,11 +15,112 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
 from .problem.errors import SceneError
 
-__all__ = ["write_dataset", "check_output"]
+__all__ = ["write_dataset", "check_output", "open_dataset", "to_cf", "from_cf", "LABEL_SUFFIX"]
+
+#: A dimension labelled by text (``link``, ``joint``, ``axis``, a grid's ``material``) is
+#: written as an integer index coordinate (CF: coordinate variables are numeric and monotonic)
+#: with the labels as the auxiliary coordinate ``<dim>_name``; :func:`open_dataset` restores
+#: the labels as the dimension's index, so ``ds.sel(link="coupler")`` stays one call.
+LABEL_SUFFIX = "_name"
+
+
+def to_cf(ds: xr.Dataset) -> xr.Dataset:
+    """Text-valued dimension coordinates as an integer index plus ``<dim>_name`` labels.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset whose dimension coordinates may hold text (``link``: crank, coupler, …).
+
+    Returns
+    -------
+    xarray.Dataset
+        The same data; each text dimension coordinate ``d`` replaced by ``d`` = 0, 1, …
+        (``units`` 1) and the auxiliary coordinate ``d_name`` (the labels, with the
+        original attributes).
+
+    Examples
+    --------
+    >>> ds = xr.Dataset(coords={"link": ("link", ["crank", "coupler"], {"long_name": "link"})})
+    >>> cf = to_cf(ds)
+    >>> cf.link.values.tolist(), cf.link_name.values.tolist()
+    ([0, 1], ['crank', 'coupler'])
+    >>> from_cf(cf).link.values.tolist()
+    ['crank', 'coupler']
+    """
+    labels = {}
+    for dim in ds.dims:
+        if dim in ds.coords and ds[dim].dtype.kind in "OUS":
+            labels[dim] = ds[dim]
+    if not labels:
+        return ds
+    out = ds.assign_coords({
+        dim: (dim, np.arange(coord.size, dtype="int32"),
+              {"units": "1", "long_name": f"index along {dim}",
+               "comment": f"labels in {dim}{LABEL_SUFFIX}; ced.io.open_dataset restores them "
+                          f"as the index of {dim}"})
+        for dim, coord in labels.items()})
+    return out.assign_coords({
+        f"{dim}{LABEL_SUFFIX}": (dim, coord.values.astype(object),
+                                 {"long_name": dim.replace("_", " "), **coord.attrs})
+        for dim, coord in labels.items()})
+
+
+def from_cf(ds: xr.Dataset) -> xr.Dataset:
+    """Undo :func:`to_cf`: every ``<dim>_name`` coordinate on an integer ``dim`` becomes the
+    index of ``dim`` again (with its attributes), so that selecting by label is one call.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset as written by :func:`write_dataset`.
+
+    Returns
+    -------
+    xarray.Dataset
+        The dataset with text dimension coordinates.
+    """
+    restore = {}
+    for dim in ds.dims:
+        name = f"{dim}{LABEL_SUFFIX}"
+        if name in ds.coords and ds[name].dims == (dim,) and dim in ds.coords \
+                and ds[dim].dtype.kind in "iu":
+            restore[dim] = (dim, ds[name].values.astype(object), dict(ds[name].attrs))
+    if not restore:
+        return ds
+    return ds.drop_vars([f"{d}{LABEL_SUFFIX}" for d in restore]).assign_coords(restore)
+
+
+def open_dataset(path: str | os.PathLike, **kwargs) -> xr.Dataset:
+    """Open a netCDF file written by ced, with the text labels of ``link``, ``joint``,
+    ``axis`` (and a grid's ``material``) restored as indexes (:func:`from_cf`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    **kwargs
+        Passed to :func:`xarray.open_dataset` (engine netcdf4).
+
+    Returns
+    -------
+    xarray.Dataset
+        Lazily loaded; close it (or use ``with``) when done.
+
+    Examples
+    --------
+    >>> ds = ced.io.open_dataset("result.nc")          # doctest: +SKIP
+    >>> ds.stress.sel(link="coupler", station=0.5)     # doctest: +SKIP
+    """
+    ds = xr.open_dataset(path, engine="netcdf4", **kwargs)
+    out = from_cf(ds)
+    out.set_close(ds._close)
+    return out
 
 
 def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
@@ -83,7 +185,9 @@ def _encoding(ds: xr.Dataset) -> dict:
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` atomically (temporary file in the same directory, then rename).
+    """Write ``ds`` to ``path`` atomically (temporary file in the same directory, then rename),
+    its text dimension coordinates as CF wants them (:func:`to_cf`; read back with
+    :func:`open_dataset`).
 
     Overwriting an open file in place can truncate it (xarray #10679); a reader either sees the
     old file or the complete new one, and a write killed half way leaves only a temp file,
@@ -107,6 +211,7 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
                                dir=path.parent)
     os.close(fd)
     try:
+        ds = to_cf(ds)
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=_encoding(ds))
         # mkstemp creates 0600; give the result the permissions a plain open() would.
         umask = os.umask(0)

@@ -32,11 +32,14 @@ from ced.problem.status import status_names  # noqa: E402
 print(status_names(int(ds.status[0])))
 
 # %%
-# ``stress`` is (case, step, link, station) in Pa; ``crank_angle`` gives the x-axis.
+# ``stress`` is (case, step, link, station, fibre) in Pa, signed, at both outer fibres
+# (y/h = -0.5 and +0.5); ``crank_angle`` gives the x-axis.
 mid = ds.stress.isel(case=0).sel(link="coupler", station=0.5)
 angle = ds.crank_angle.isel(case=0)
 fig, ax = plt.subplots()
-ax.plot(angle, mid / 1e6)
+for fibre in mid.fibre.values:
+    ax.plot(angle, mid.sel(fibre=fibre) / 1e6, label=f"fibre y/h = {fibre:+g}")
+ax.legend()
 ax.set_xlabel("crank angle [rad]")
 ax.set_ylabel("stress at mid-coupler [MPa]")
 ax.set_title(f"peak {float(ds.peak_stress.sel(link='coupler')[0]) / 1e6:.0f} MPa")

@@ -4,14 +4,15 @@ A small study, read back with xarray
 
 A study is a grid of geometries × speeds × materials × sections. The pipeline
 (``snakemake --configfile …``) runs it in chunks, one dataset per chunk; here the same
-functions run two chunks by hand, and the datasets are read back with xarray as any netCDF.
+functions run two chunks by hand, laid out as the pipeline lays them out, and the study is
+read back as one lazily loaded xarray dataset with ``ced.open_study``.
 """
 import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import xarray as xr
 
+import ced
 from ced.study.cases import chunks
 from ced.study.chunk_job import run_chunk
 from ced.study.config import study_estimate, validate_config
@@ -33,14 +34,16 @@ config = validate_config({
 print(study_estimate(config).cases, "cases in", chunks(config))
 
 out = Path(tempfile.mkdtemp())
-paths = [run_chunk(config, family, index, out / f"{family}_{index}.nc")
+paths = [run_chunk(config, family, index, out / "chunks" / family / f"{index}.nc")
          for family, n in chunks(config).items() for index in range(n)]
 
 # %%
-# Each chunk is a CF dataset; ``xr.concat`` joins them along ``case`` (with dask installed,
-# ``xr.open_mfdataset(paths, combine="nested", concat_dim="case")`` does the same lazily).
-ds = xr.concat([xr.open_dataset(path) for path in paths], dim="case")
-peak = ds.peak_stress.sel(link="coupler") / 1e6
+# Each chunk is a CF dataset (``ced.open_dataset`` reads one, link names restored);
+# ``ced.open_study`` joins every chunk of the study along ``case``, lazily (dask): values are
+# read when computed. Its ``case`` runs over the whole study; ``case_id`` is the id within
+# the family.
+ds = ced.open_study(out)
+peak = (ds.peak_stress.sel(link="coupler") / 1e6).compute()
 print(peak.to_dataframe(name="MPa")[["crank", "speed", "material", "MPa"]])
 
 # %%

@@ -92,7 +92,7 @@ def test_huge_grid_is_refused_without_building_it(monkeypatch):
     with pytest.raises(SceneError) as err:
         validate_config(config)
     assert f"more than the limit of {MAX_GRID_POINTS:.4g}" in err.value.message
-    assert "estimated output at most 906 TB" in err.value.message
+    assert "estimated output at most 1.04 PB" in err.value.message  # stress at two fibres
     assert "peak memory per chunk job about" in err.value.message
 
 

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 import yaml
 
 from ced.study.cases import chunks
+from ced.io import open_dataset
 
 pytestmark = pytest.mark.skipif(os.environ.get("CED_CLUSTER") != "1",
                                 reason="needs a SLURM cluster: make cluster-test")
@@ -46,7 +46,7 @@ def files() -> list[str]:
 
 
 def variables(path: Path) -> dict[str, np.ndarray]:
-    with xr.open_dataset(path, engine="netcdf4") as ds:
+    with open_dataset(path) as ds:
         return {n: v.values.copy() for n, v in ds.variables.items()
                 if "wall time" not in v.attrs.get("long_name", "")}
 

@@ -6,6 +6,7 @@ import xarray as xr
 
 from ced.io import write_dataset
 from ced.simulation.simulate import simulate
+from ced.io import open_dataset
 
 SCENE = "config/scenes/sung_thompson_rigid.yaml"
 ELASTIC = {
@@ -22,7 +23,7 @@ def _written(tmp_path_factory, scene):
     """The dataset of ``scene`` after a write and a read back."""
     path = tmp_path_factory.mktemp("io") / "out.nc"
     write_dataset(simulate(scene), path)
-    with xr.open_dataset(path, engine="netcdf4") as ds:
+    with open_dataset(path) as ds:
         return ds.load()
 
 

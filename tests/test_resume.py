@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 import yaml
 
 from ced.study.cases import chunks
 from tests.conftest import shared
+from ced.io import open_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
@@ -96,7 +96,7 @@ def data_vars(directory: Path, n_chunks: dict[str, int]) -> dict[str, dict[str, 
     times (a clock reading, not a result: differs from run to run by nature)."""
     out = {}
     for target in chunk_targets(n_chunks):
-        with xr.open_dataset(directory / target, engine="netcdf4") as ds:
+        with open_dataset(directory / target) as ds:
             measured = {n for n, v in ds.variables.items()
                         if "wall time" in v.attrs.get("long_name", "")}
             assert measured == {"solve_time"}, measured
@@ -197,6 +197,6 @@ def test_interrupted_run_resumes(tmp_path, reference, sig):
         strays = [p for p in strays if not re.fullmatch(r"\.\d+\.nc\.\w+\.tmp", p.name)]
     assert not strays, strays
     for path in (tmp_path / "results").rglob("*.nc"):  # no partial netCDF under a final name
-        xr.open_dataset(path, engine="netcdf4").close()
+        open_dataset(path).close()
     assert not incomplete_marks(tmp_path)
     assert_bitwise_equal(data_vars(tmp_path, n_chunks), reference[0])

@@ -12,6 +12,7 @@ from snakemake.utils import validate
 
 from ced.study.convergence import load_sweep
 from ced.study.cases import chunks
+from ced.io import open_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "Snakefile"
@@ -166,19 +167,19 @@ def test_outputs_open_with_cf_attributes(run, family):
     config = load(TEST_STUDY)
     n_chunks = chunks(config)[family]
     for i in range(n_chunks):
-        with xr.open_dataset(results / "chunks" / family / f"{i}.nc") as ds:
+        with open_dataset(results / "chunks" / family / f"{i}.nc") as ds:
             assert ds.attrs["Conventions"] == "CF-1.12"
             assert not cf_problems(ds, index_units=False)
             assert ds.case.attrs["units"] == "1"
             assert "deflection" in ds and "natural_frequency" in ds
-    with xr.open_dataset(results / "maps" / f"{family}.nc") as cases:
+    with open_dataset(results / "maps" / f"{family}.nc") as cases:
         assert not cf_problems(cases)
         assert cases.case.values.tolist() == list(range(cases.sizes["case"]))
         assert set(cases.family.values.tolist()) == {family}
         assert {"peak_input_torque", "peak_stress", "natural_frequency_min",
                 "natural_frequency_max", "status"} <= set(cases.data_vars)
         assert "flag_meanings" in cases.status.attrs
-    with xr.open_dataset(results / "maps" / f"{family}_grid.nc") as grid:
+    with open_dataset(results / "maps" / f"{family}_grid.nc") as grid:
         assert not cf_problems(grid)
         assert {"speed", "material"} <= set(grid.dims)
         assert grid.attrs["Conventions"] == "CF-1.12"

@@ -6,7 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["link_fields", "deflection", "peaks"]
+__all__ = ["link_fields", "deflection", "peaks", "FIBRES"]
+
+#: Positions of the two outer fibres across the in-plane section depth, y/h: y along the link's
+#: transverse (deflection) axis, so the curvature v'' > 0 stretches the fibre at y = −h/2
+#: (bending strain κh/2 adds to the axial strain there).
+FIBRES = (-0.5, 0.5)
 
 
 def link_fields(
@@ -31,7 +36,9 @@ def link_fields(
     dict with (case, step, station) arrays:
     ``deflection`` transverse displacement relative to the chord through the two deformed end
     joints, m; ``axial_displacement`` u, m; ``bending_strain`` κh/2; ``axial_strain`` u';
-    ``stress`` E × the outer-fibre strain (axial ± bending) of larger magnitude, Pa.
+    and ``stress`` (case, step, station, fibre): E × the strain at the two outer fibres,
+    ``axial + bending`` at y = −h/2 and ``axial − bending`` at y = +h/2 (:data:`FIBRES`), Pa,
+    signed (tension positive).
     """
     # One batched matmul per case over every operator: (t, n) @ (n, 4 st), BLAS-sized.
     names = ("v", "curvature", "axial_strain", "u")
@@ -48,10 +55,10 @@ def link_fields(
     chord = (1.0 - xi) * v[..., :1] + xi * v[..., -1:]
     bending = apply("curvature") * (0.5 * height)[:, None, None]
     axial = apply("axial_strain")
-    # Outer fibres carry axial ± bending; the larger magnitude has the sign of the axial part
-    # (ties and zero axial strain take +).
-    sign = np.where(axial < 0.0, -1.0, 1.0)
-    stress = youngs_modulus[:, None, None] * (axial + sign * np.abs(bending))
+    # Both outer fibres, signed: the one of larger magnitude swaps between them within a cycle,
+    # and a history that follows it jumps sign there, which no fatigue count may read.
+    E = youngs_modulus[:, None, None, None]
+    stress = E * np.stack([axial + bending, axial - bending], axis=-1)
     return {
         "deflection": v - chord,
         "axial_displacement": apply("u").copy(),

@@ -44,7 +44,8 @@ __all__ = [
 ]
 
 #: Primary keys of an inline material (E, rho, nu required).
-MATERIAL_KEYS = ("name", "source", "E", "rho", "nu", "yield_strength")
+MATERIAL_KEYS = ("name", "source", "E", "rho", "nu", "yield_strength", "ultimate_strength",
+                 "endurance_limit")
 #: Keys computed by :func:`resolve_material`, accepted (and checked) on input.
 DERIVED_MATERIAL_KEYS = ("G", "lame_lambda", "lame_mu", "c1", "c2")
 
@@ -76,6 +77,10 @@ MATERIAL_FIELDS = {
     "rho": (_RHO, "required", "density"),
     "nu": (_NU, "required", "Poisson's ratio"),
     "yield_strength": (_YIELD, None, "yield strength, for the study's stress utilisation"),
+    "ultimate_strength": (_YIELD, None, "tensile strength, for the fatigue check's Goodman "
+                                        "mean-stress correction"),
+    "endurance_limit": (_YIELD, None, "fully reversed endurance limit (or the fatigue strength "
+                                      "at the longest tested life), for the fatigue check"),
 }
 #: Section keys: (check, default, one line of meaning), as :func:`section_properties` checks.
 SECTION_FIELDS = {
@@ -125,7 +130,8 @@ def resolve_material(spec: Any, path: str = "links.default.material") -> dict:
     ----------
     spec : str or mapping
         A library name (case-insensitive; aliases such as ``aluminum`` accepted) or an inline
-        mapping ``{E, rho, nu[, yield_strength, name, source]}`` in SI units. A dict returned
+        mapping ``{E, rho, nu[, yield_strength, ultimate_strength, endurance_limit, name,
+        source]}`` in SI units. A dict returned
         by this function is accepted too (its derived entries must be consistent).
     path : str
         Dotted key path used in error messages.
@@ -134,7 +140,8 @@ def resolve_material(spec: Any, path: str = "links.default.material") -> dict:
     -------
     dict
         ``name``, ``source`` (str or None), ``E`` (Pa), ``rho`` (kg/m³), ``nu``,
-        ``yield_strength`` (Pa, None if not given inline), ``G`` (Pa), ``lame_lambda``,
+        ``yield_strength``, ``ultimate_strength``, ``endurance_limit`` (Pa, None if not
+        given), ``G`` (Pa), ``lame_lambda``,
         ``lame_mu`` (Pa), ``c1``, ``c2`` (m/s).
 
     Raises
@@ -168,7 +175,8 @@ def _allowed_materials() -> str:
     entries, aliases = _raw_library()
     alias_text = f" (aliases: {join(sorted(aliases))})" if aliases else ""
     return (f"a library name from {join(sorted(entries))}{alias_text}, or an inline mapping "
-            f"{{E, rho, nu[, yield_strength, name, source]}}")
+            f"{{E, rho, nu[, yield_strength, ultimate_strength, endurance_limit, name, "
+            f"source]}}")
 
 
 def _inline(spec: Mapping, path: str, default_name: str | None = None) -> dict:
@@ -180,8 +188,11 @@ def _inline(spec: Mapping, path: str, default_name: str | None = None) -> dict:
     E = _E(spec["E"], f"{path}.E")
     rho = _RHO(spec["rho"], f"{path}.rho")
     nu = _NU(spec["nu"], f"{path}.nu")
-    ys = spec.get("yield_strength")
-    ys = None if ys is None else _YIELD(ys, f"{path}.yield_strength")
+    ys, uts, se = (None if spec.get(key) is None else _YIELD(spec[key], f"{path}.{key}")
+                   for key in ("yield_strength", "ultimate_strength", "endurance_limit"))
+    if se is not None and uts is not None and se >= uts:
+        raise SceneError(f"{path}.endurance_limit", f"{se!r} Pa must be below the "
+                                                    f"ultimate_strength {uts!r} Pa")
     if spec.get("name") is not None:
         name = Text(nonempty=True)(spec["name"], f"{path}.name")
     else:
@@ -204,7 +215,7 @@ def _inline(spec: Mapping, path: str, default_name: str | None = None) -> dict:
                                    f"E, rho and nu must be physically reasonable")
     _check_consistent(spec, derived, path, "E, rho and nu")
     return {"name": name, "source": source, "E": E, "rho": rho, "nu": nu,
-            "yield_strength": ys, **derived}
+            "yield_strength": ys, "ultimate_strength": uts, "endurance_limit": se, **derived}
 
 
 def _check_consistent(spec: Mapping, computed: Mapping[str, float], path: str,

@@ -262,8 +262,10 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
     ncase, nout = qz.shape[:2]
     nlink = len(topo.links)
     shape = (ncase, nout, nlink, len(model.stations))
-    names = ("deflection", "axial_displacement", "bending_strain", "axial_strain", "stress")
+    names = ("deflection", "axial_displacement", "bending_strain", "axial_strain")
     stored = {name: np.zeros(shape, np.float32) for name in names} if fields else {}
+    if fields:  # signed, at both outer fibres (ced.fem.recovery.FIBRES)
+        stored["stress"] = np.zeros(shape + (2,), np.float32)
     peak, peak_stress, static_peak = (np.zeros((ncase, nlink)) for _ in range(3))
     offsets = layout.link_offsets
     for i, name in enumerate(topo.links):
@@ -276,7 +278,8 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
         for key, value in stored.items():
             value[:, :, i] = link[key]
         peak[:, i] = peaks(link["deflection"][:, :, None])[:, 0]
-        peak_stress[:, i] = peaks(link["stress"][:, :, None])[:, 0]
+        # the larger magnitude of the two fibres: |axial| + |bending|
+        peak_stress[:, i] = peaks(np.abs(link["stress"]).max(axis=-1)[:, :, None])[:, 0]
         if qz_static is not None:
             static = deflection(qz_static[..., rows], model.recovery[name]["v"],
                                 model.stations)

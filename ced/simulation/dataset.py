@@ -19,9 +19,11 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
+from ..fem.recovery import FIBRES
 from ..problem.linkage import PRESET_FIELDS
 from ..problem.mechanism import topology
-from ..problem.status import STATUS_ADVICE, STATUS_DTYPE, STATUS_FLAGS, STATUS_MEANINGS
+from ..problem.status import (STATUS_ADVICE, STATUS_DTYPE, STATUS_FLAGS, STATUS_MEANINGS,
+                              status_names)
 from ..response.batch import Batch
 
 __all__ = ["VARIABLES", "PRESENCE", "DIMENSIONS", "CASE_COORDINATES", "REFERENCES", "make_dataset",
@@ -51,16 +53,19 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "axial_displacement": (
         ("case", "step", "link", "station"), "m", "axial elastic displacement", _F32),
     "bending_strain": (
-        ("case", "step", "link", "station"), "1", "outer-fibre bending strain", _F32),
+        ("case", "step", "link", "station"), "1",
+        "bending strain at the outer fibre y = -h/2 (curvature times half the section depth)",
+        _F32),
     "axial_strain": (("case", "step", "link", "station"), "1", "axial strain", _F32),
     "stress": (
-        ("case", "step", "link", "station"), "Pa",
-        "normal stress at the outer fibre of larger magnitude", _F32),
+        ("case", "step", "link", "station", "fibre"), "Pa",
+        "normal stress at the outer fibre, signed (tension positive)", _F32),
     "natural_frequency": (
         ("case", "modal_angle", "mode"), "Hz", "natural frequency of the frozen linkage; "
         "negative, −√|λ|/2π, for a negative eigenvalue λ (status flag buckled)", _F64),
     "peak_deflection": (("case", "link"), "m", "peak absolute deflection", _F64),
-    "peak_stress": (("case", "link"), "Pa", "peak absolute stress", _F64),
+    "peak_stress": (("case", "link"), "Pa",
+                    "peak absolute normal stress over time, stations and both outer fibres", _F64),
     "dynamic_amplification": (
         ("case", "link"), "1", "peak dynamic over peak quasi-static deflection", _F64),
     "longitudinal_wave_speed": (
@@ -71,15 +76,16 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
     "discretization_auto": (
-        ("case",), "", "discretization chosen for the tolerance (JSON; empty if not auto)", "str"),
+        ("case",), "", "discretization chosen for the tolerance (JSON; null if not auto)", "str"),
     "error_estimate": (
         ("case",), "1",
         "estimated relative discretization error of the case's peak stress", _F64),
     "effects_auto": (
         ("case",), "", "effects chosen by effects: auto, with the estimated relative "
-        "contribution of each (JSON)", "str"),
+        "contribution of each (JSON; null if not auto)", "str"),
     "status": (("case",), "1", "case status flags", STATUS_DTYPE),
-    "message": (("case",), "", "diagnostic message", "str"),
+    "message": (("case",), "", "diagnostic message: why a failed case failed, else its "
+                "status flags (ok when none)", "str"),
 }
 
 
@@ -115,7 +121,7 @@ PRESENCE: dict[str, str] = {
                       "`outputs.error_estimate: false`; NaN where no estimate could be made",
     "effects_auto": "when a scene of the run has `effects: auto`",
     "status": "always (bit flags: `flag_masks`, `flag_meanings`)",
-    "message": "always (empty when the case is ok)",
+    "message": "always",
 }
 
 #: The dataset's dimensions: meaning and when present (for the generated reference).
@@ -128,6 +134,9 @@ DIMENSIONS: dict[str, tuple[str, str]] = {
     "axis": ("global axes x, y", "always"),
     "station": ("normalized position along the link, 0 (first joint) to 1 (second), "
                 "`outputs.stations` evenly spaced values including 0.5", _ELASTIC),
+    "fibre": ("outer fibre across the in-plane section depth, y/h = -0.5 and 0.5 (y along the "
+              "link's transverse deflection axis: curvature v'' > 0 stretches the fibre at "
+              "-0.5)", "with `stress`"),
     "modal_angle": ("phase of the input cycle, rad, `modal.angles` evenly spaced values",
                     "with `natural_frequency`"),
     "mode": ("mode number 1, 2, … by ascending frequency", "with `natural_frequency`"),
@@ -136,9 +145,10 @@ DIMENSIONS: dict[str, tuple[str, str]] = {
 #: Coordinates on ``case`` (:func:`case_coordinates`): name -> (units, long name, when).
 CASE_COORDINATES: dict[str, tuple[str, str, str]] = {
     "family": ("", "mechanism family", "always"),
-    "scene_name": ("", "scene name", "always"),
+    "scene_name": ("", "scene name", "when a scene has a `name`"),
     "speed": ("rad s-1", "input speed", "always"),
-    "material": ("", "material of the first flexible link (of the crank if none is)", "always"),
+    "material": ("", "material of the first flexible link (of the crank if none is); the long "
+                 "name lists the links that share it", "always"),
     "ground": ("m", "ground length", "four-bar, six-bars"),
     "crank": ("m", "crank length", "four-bar, slider-crank, six-bars"),
     "coupler": ("m", "coupler length", "four-bar, six-bars"),
@@ -214,8 +224,14 @@ def make_dataset(
     for name, values in data.items():
         dims, units, long_name, dtype = VARIABLES[name]
         values = np.asarray(values)
+        if name == "message" and "status" in data:  # no empty text where a value belongs
+            values = np.array([m or ", ".join(status_names(int(code))) for m, code
+                               in zip(values.tolist(), np.asarray(data["status"]).tolist())],
+                              dtype=object)
         if dtype == "str":
             values = values.astype(object)
+            if name.endswith("_auto"):  # JSON: a case not chosen automatically reads null
+                values = np.array([v or "null" for v in values.tolist()], dtype=object)
         else:
             with np.errstate(over="ignore"):  # a failed case may overflow float32: inf
                 values = values.astype(dtype)
@@ -228,6 +244,10 @@ def make_dataset(
             attrs["flag_values"] = np.array([0] + list(STATUS_FLAGS.values()), dtype=STATUS_DTYPE)
             attrs["flag_meanings"] = " ".join(["ok"] + list(STATUS_FLAGS))
         variables[name] = xr.Variable(dims, values, attrs)
+    if any("fibre" in v.dims for v in variables.values()) and "fibre" not in coords:
+        coords = {**coords, "fibre": ("fibre", np.array(FIBRES), {
+            "units": "1", "long_name": "outer fibre position across the in-plane section "
+                                       "depth, y/h"})}
     ds = xr.Dataset(variables, coords=coords)
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     ds.attrs = {
@@ -271,16 +291,26 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
     topo = topology(scenes[0]["mechanism"])
     # The material and section of the first flexible link describe the case (all links if rigid).
     link = next((n for n in topo.links if scenes[0]["links"][n]["flexible"]), topo.link_names[0])
+
+    def holders(key: str) -> str:
+        """The links whose ``key`` (material, section) is the described one in every case."""
+        same = [n for n in topo.link_names
+                if all(s["links"][n][key] == s["links"][link][key] for s in scenes)]
+        return ("every link" if len(same) == len(topo.link_names)
+                else "the " + " and ".join(same))
+
     coords = {
         "family": ("case", np.array(families, dtype=object), {"long_name": "mechanism family"}),
-        "scene_name": ("case", np.array([s.get("name", "") for s in scenes], dtype=object),
-                       {"long_name": "scene name"}),
         "speed": ("case", speeds,
                   {"units": "rad s-1", "long_name": "input speed"}),
         "material": ("case", np.array([s["links"][link]["material"]["name"] for s in scenes],
                                       dtype=object),
-                     {"long_name": f"material of the {link}"}),
+                     {"long_name": f"material of {holders('material')}"}),
     }
+    names = [s.get("name") or "" for s in scenes]
+    if any(names):  # unnamed scenes (a study's) have no name to store
+        coords["scene_name"] = ("case", np.array(names, dtype=object),
+                                {"long_name": "scene name"})
     for key in {"four_bar": ("ground", "crank", "coupler", "rocker"),
                 "slider_crank": ("crank", "rod", "offset", "slider_mass"),
                 "single_link": ("length",)}.get(kind, _six_bar_keys(scenes[0]["mechanism"])):
@@ -288,11 +318,12 @@ def case_coordinates(batches: list[Batch], order: np.ndarray) -> dict:
         coords[key] = ("case", np.array([s["mechanism"][key] for s in scenes], float),
                        {"units": units, "long_name": f"{key.replace('_', ' ')}"})
     section = scenes[0]["links"][link]["section"]
+    sections = holders("section")
     for key in ("height", "width", "diameter"):
         if key in section:
             coords[f"section_{key}"] = (
                 "case", np.array([s["links"][link]["section"][key] for s in scenes], float),
-                {"units": "m", "long_name": f"section {key} of the {link}"})
+                {"units": "m", "long_name": f"section {key} of {sections}"})
     return {k: (v[0], v[1][order], v[2]) for k, v in coords.items()}
 
 
@@ -352,7 +383,16 @@ def dataset_reference() -> str:
         "Each case is described by its parameters, as coordinates along `case` (select with "
         "`ds.where(ds.family == 'crank_rocker', drop=True)` or `ds.swap_dims(case='speed')`). "
         "The dimension coordinates are `case` (index), `step` (solver step index), `link`, "
-        "`joint`, `axis` (x, y), `station` (0…1), `modal_angle` (rad) and `mode`.",
+        "`joint`, `axis` (x, y), `station` (0…1), `fibre` (y/h), `modal_angle` (rad) and "
+        "`mode`.",
+        "",
+        "In the file, a dimension labelled by text (`link`, `joint`, `axis`, and `material` in "
+        "a study's grid maps) is an integer index, as CF requires of coordinate variables, "
+        "with the labels as the auxiliary coordinate `link_name` (`joint_name`, …). "
+        "`ced.open_dataset(path)` (`ced.io.open_dataset`) restores the labels as the index, "
+        "so that selecting by name stays one call: "
+        "`ced.open_dataset('run.nc').stress.sel(link='coupler', fibre=0.5)`. With plain "
+        "xarray, `ds.swap_dims(link='link_name')` does the same.",
         "",
         markdown_table(["coordinate", "units", "meaning", "present"], coords),
         "",

@@ -36,11 +36,11 @@ def case_bytes(scene: dict, itemsize: int = 4) -> int:
     J joints, P stations, A modal angles, M modes, g = 1 for a slider-crank (guide force), e = 1
     for an elastic formulation and m = 1 if a modal analysis is asked::
 
-        bytes = 8 S (3 + g + 3 L + 4 J) + e itemsize S 5 L P + e (8·5 L + 8 m A M) + 8·3 + 161
+        bytes = 8 S (3 + g + 3 L + 4 J) + e itemsize S 6 L P + e (8·5 L + 8 m A M) + 8·3 + 161
 
     (time, crank angle, input torque, guide force; link angle, velocity, acceleration; joint
-    position and force; the five station fields, float32 on disk (``itemsize`` 4) and float64
-    in the solver (8); five per-link peaks; natural frequencies; three per-case scalars; status,
+    position and force; six station fields — four, and the stress at two fibres — float32 on
+    disk (``itemsize`` 4) and float64 in the solver (8); five per-link peaks; natural frequencies; three per-case scalars; status,
     message and case coordinates.)
 
     Parameters
@@ -60,7 +60,7 @@ def case_bytes(scene: dict, itemsize: int = 4) -> int:
     modal = scene.get("modal") or {"angles": 0, "modes": 0}
     total = 8 * steps * (3 + guide + 3 * links + 4 * joints) + 8 * 3 + 161
     if elastic:
-        total += itemsize * steps * 5 * links * stations + 8 * 5 * links
+        total += itemsize * steps * 6 * links * stations + 8 * 5 * links
         total += 8 * modal["angles"] * modal["modes"]
     return total
 

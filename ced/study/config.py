@@ -351,6 +351,17 @@ def _check_axes(config: dict) -> None:
             raise SceneError(path, f"values must be distinct, repeated: {join(repeated)}")
 
 
+def _check_map_slice(config: dict) -> None:
+    """``resonance_map.fixed`` values must be grid values of their length in some family."""
+    for key, value in (config.get("resonance_map", {}).get("fixed") or {}).items():
+        values = sorted({v for grid in config["grids"].values() if key in grid
+                         for v in grid_values(grid[key], f"grids.*.{key}")})
+        if not any(math.isclose(value, v, rel_tol=1e-9, abs_tol=1e-12) for v in values):
+            allowed = ", ".join(f"{v:g}" for v in values) or f"none: no grid has {key}"
+            raise SceneError(f"resonance_map.fixed.{key}",
+                             f"{value!r} m is not a grid value of {key}; allowed: {allowed}")
+
+
 def _check_families(config: dict, geometries: list) -> None:
     """Every mechanism type of the grids has an assemblable geometry, and a kept family has
     a case."""
@@ -444,6 +455,7 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
             + f", materials {len(config['materials'])}, sections {len(config['sections'])}"
             + _upper_bounds(config)))
     _check_axes(config)
+    _check_map_slice(config)
     try:
         names = material_names(config)
     except SceneError as err:

@@ -259,7 +259,64 @@ def run_family(sweep: dict, family: str) -> "xr.Dataset":
     ds = ds.merge(_auto_check(sweep, family, frame, ref, batch))
     ds.attrs.update(family=family, scene=json.dumps(_merge(sweep["base_scene"],
                                                            sweep["families"][family])),
-                    references=json.dumps(references))
+                    reference_values=json.dumps(references))
+    return describe(ds)
+
+
+#: Units and long names of the convergence dataset's variables without their own.
+_DESCRIPTIONS = {
+    "setting": ("1", "index of the discretization setting in the sweep"),
+    "label": (None, "setting label: formulation, modes per link, integrator"),
+    "formulation": (None, "link formulation"),
+    "integrator": (None, "time integrator"),
+    "modes_per_link": ("1", "component modes kept per link (0: all)"),
+    "elements_per_link": ("1", "finite elements per link"),
+    "steps_per_revolution": ("1", "time steps per revolution"),
+    "peak_stress": ("Pa", "peak absolute stress of the reference scene"),
+    "peak_deflection": ("m", "peak absolute deflection of the reference scene"),
+    "first_frequency": ("Hz", "lowest natural frequency over the cycle"),
+    "auto_elements_per_link": ("1", "elements per link chosen by discretization: auto"),
+    "auto_steps_per_revolution": ("1", "steps per revolution chosen by discretization: auto"),
+    "auto_error": ("1", "true relative error of peak stress of the auto choice"),
+    "auto_error_estimate": ("1", "ced's estimate of the auto choice's relative error"),
+    "cheapest_label": (None, "cheapest sweep setting meeting the tolerance (none: no setting "
+                             "meets it)"),
+}
+
+
+def describe(ds: "xr.Dataset") -> "xr.Dataset":
+    """The CF description of a convergence dataset: units and long names of every variable,
+    the global attributes of ced's datasets (Conventions, title, source, history, …), no
+    empty text.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A family's convergence dataset (:func:`run_family`).
+
+    Returns
+    -------
+    xarray.Dataset
+        The same data, described.
+    """
+    import datetime
+
+    from ..simulation.dataset import REFERENCES, source_string
+
+    for name, (units, long_name) in _DESCRIPTIONS.items():
+        if name in ds.variables:
+            ds[name].attrs.setdefault("long_name", long_name)
+            if units is not None:
+                ds[name].attrs.setdefault("units", units)
+    if "cheapest_label" in ds:
+        ds["cheapest_label"] = ds.cheapest_label.copy(data=np.array(
+            [str(v) or "none" for v in ds.cheapest_label.values], dtype=object))
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    ds.attrs = {"Conventions": "CF-1.12",
+                "title": f"ced convergence study: {ds.attrs.get('family', '')}",
+                "institution": "ced developers", "source": source_string(),
+                "history": f"{now} created by ced.study.convergence", "references": REFERENCES,
+                **ds.attrs}
     return ds
 
 

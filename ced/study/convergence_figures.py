@@ -25,6 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..io import open_dataset  # noqa: E402
 from .convergence import UNRESOLVED  # noqa: E402
 from .figures import save  # noqa: E402
 
@@ -469,7 +470,7 @@ def write_accuracy_summary(paths: list[str], csv: str | Path, markdown: str | Pa
 
     datasets = {}
     for path in paths:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with open_dataset(path) as ds:
             ds = ds.load()
         datasets[Path(path).stem] = ds  # results/<study>/convergence/<family>.nc
     table = accuracy_table(datasets)

@@ -20,7 +20,8 @@ from ..problem.scene import load_scene
 from ..response.batch import make_batch
 from ..simulation.simulate import solve_batch
 
-__all__ = ["RUNGS", "run_rung", "run_ladder", "write_ladder", "run_scene_ladder"]
+__all__ = ["RUNGS", "REFERENCE_RUNG", "run_rung", "run_ladder", "write_ladder", "ladder_figure",
+           "run_scene_ladder"]
 
 #: name -> (formulation, effects to remove from the scene, element counts to try)
 RUNGS = {
@@ -140,8 +141,6 @@ def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
     directory : str or Path
         Target folder (created if missing).
     """
-    from .figures import save
-
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "ladder.json").write_text(json.dumps(results, indent=2) + "\n")
@@ -157,21 +156,69 @@ def write_ladder(results: dict[str, dict], directory: str | Path) -> None:
                      f"{1e3 * r['solve_time']:.3g} | {'yes' if r['converged'] else 'no'} |")
     (directory / "ladder.md").write_text("\n".join(lines) + "\n")
 
+    ladder_figure(results, directory / "ladder.png")
+
+
+#: The rung the others are compared with in :func:`ladder_figure`: the continuum model.
+REFERENCE_RUNG = "plane_stress"
+
+
+def ladder_figure(results: dict[str, dict], png: str | Path) -> None:
+    """What each model predicts and what it costs, as points: left, each rung's peak stress
+    and first natural frequency (linear axes, so distances mean something); right, each
+    rung's difference in peak stress from :data:`REFERENCE_RUNG` against its solve time per
+    case (log-log).
+
+    Parameters
+    ----------
+    results : dict of str to dict
+        :func:`run_ladder` results.
+    png : str or Path
+        The PNG file written (and an SVG beside it).
+    """
     import matplotlib.pyplot as plt
 
+    from .figures import plain_ticks, save
+
     done = {k: v for k, v in results.items() if v["available"] and k != "rigid"}
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True)
     names = list(done)
-    for ax, key, scale, label in ((axes[0], "peak_stress", 1e-6, "peak stress [MPa]"),
-                                  (axes[1], "first_frequency", 1.0, "first frequency [Hz]"),
-                                  (axes[2], "solve_time", 1e3, "solve time per case [ms]")):
-        ax.barh(names, [scale * done[n][key] for n in names], color="C0")
+    reference = done.get(REFERENCE_RUNG) or done[names[-1]]
+    ref_name = REFERENCE_RUNG if REFERENCE_RUNG in done else names[-1]
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(13, 4.0), constrained_layout=True,
+                                        gridspec_kw={"width_ratios": (1, 1, 1.3)})
+    y = np.arange(len(names))
+    for ax, key, scale, label in ((ax1, "peak_stress", 1e-6, "peak stress [MPa]"),
+                                  (ax2, "first_frequency", 1.0, "first frequency [Hz]")):
+        ax.plot([scale * done[n][key] for n in names], y, "o", color="C0")
+        ax.axvline(scale * reference[key], color="0.5", ls="--", lw=0.8,
+                   label=f"{ref_name} (reference)")
         ax.set_xlabel(label)
-        ax.set_xscale("log")
-    axes[1].set_yticklabels([])
-    axes[2].set_yticklabels([])
-    fig.suptitle("Fidelity ladder: what each model predicts and costs (converged meshes)")
-    save(fig, directory / "ladder.png")
+        ax.set_yticks(y, names if ax is ax1 else [""] * len(names))
+        ax.grid(True, axis="x", lw=0.3)
+        ax.set_ylim(len(names) - 0.5, -0.5)
+    ax1.legend(fontsize=7, loc="lower right")
+    for i, n in enumerate(names):
+        if n == ref_name:
+            continue
+        error = abs(done[n]["peak_stress"] / reference["peak_stress"] - 1.0)
+        time = 1e3 * done[n]["solve_time"]
+        ax3.plot(time, 100 * max(error, 1e-4), "o", color=f"C{i}")
+        # alternate above and below: rungs of equal error and similar time would overlap
+        ax3.annotate(f"{n} ({100 * error:.2g} %)", (time, 100 * max(error, 1e-4)),
+                     textcoords="offset points", xytext=(5, 4 if i % 2 else -10), fontsize=7)
+    ax3.axvline(1e3 * reference["solve_time"], color="0.5", ls="--", lw=0.8)
+    ax3.text(1e3 * reference["solve_time"], 1.0, f" {ref_name}", rotation=90, fontsize=7,
+             va="top", transform=ax3.get_xaxis_transform(), color="0.4")
+    ax3.set_xscale("log")
+    ax3.set_yscale("log")
+    plain_ticks(ax3.xaxis)
+    plain_ticks(ax3.yaxis)
+    ax3.set_xlabel("solve time per case [ms]")
+    ax3.set_ylabel(f"peak stress difference from {ref_name} [%]")
+    ax3.grid(True, which="major", lw=0.3)
+    fig.suptitle("Fidelity ladder: what each model predicts and what it costs "
+                 "(each refined until converged)", fontsize=10)
+    save(fig, png)
 
 
 def run_scene_ladder(path: str | Path, directory: str | Path, link: str = "coupler") -> None:

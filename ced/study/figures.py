@@ -10,15 +10,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..io import open_dataset  # noqa: E402
 from ..problem.mechanism import topology  # noqa: E402
-from ..problem.status import STATUS_FILL, STATUS_FLAGS, status_names  # noqa: E402
+from ..problem.status import status_names  # noqa: E402
+from .safe_speed import NOT_CREDIBLE, credibility  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
-           "resonance_map", "map_slice", "worst_case_figure", "magnification", "HARMONICS",
-           "MAP_HARMONICS"]
-
-#: Harmonics k of the curves k·Ω/2π = f_1 on resonance maps.
-MAP_HARMONICS = tuple(range(1, 6))
+           "worst_case_figure", "worst_cases", "magnification", "plain_ticks", "rpm_axis",
+           "HARMONICS"]
 
 #: Crank harmonics k·Ω/2π drawn on Campbell diagrams.
 HARMONICS = tuple(range(1, 11))
@@ -48,11 +47,55 @@ def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
     plt.close(fig)
 
 
-def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
-    """Peak input torque (and peak stress where present) against speed, one panel a family.
+def plain_ticks(axis) -> None:
+    """Plain numbers (20, 50, 100) instead of 2×10¹ on a (log) axis or colorbar axis: ticks at
+    1, 2, 5 × 10ⁿ over up to three decades, at the decades beyond.
 
-    Cases with status ok are drawn in colour, flagged ones in grey (failed cases, with no
-    values, are left out).
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis``, ``ax.yaxis`` or ``colorbar.ax.yaxis``, its limits set.
+    """
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    if axis.get_scale() == "log":
+        axis.axes.autoscale_view()
+        low, high = sorted(axis.get_view_interval())
+        decades = np.log10(high / low) if low > 0 else np.inf
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0) if decades <= 3 else (1.0,),
+                                          numticks=8))
+        axis.set_minor_formatter(NullFormatter())
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+
+
+def rpm_axis(ax, label: str = "input speed [rpm]"):
+    """A secondary x axis on top in rpm for an x axis in rad/s.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes whose x is an input speed in rad/s.
+    label : str
+        Label of the rpm axis.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The secondary axis.
+    """
+    scale = 60.0 / (2.0 * np.pi)
+    top = ax.secondary_xaxis("top", functions=(lambda w: w * scale, lambda n: n / scale))
+    top.set_xlabel(label, fontsize=8)
+    top.tick_params(labelsize=7)
+    return top
+
+
+def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
+    """Peak input torque (and peak stress where present) against speed, one column a family.
+
+    One colour a material; cases with status ok filled, flagged ones hollow (failed cases,
+    with no values, are left out). On the stress panels, dashed in the material's colour: its
+    yield strength over the study's stress safety factor (the allowable peak stress).
 
     Parameters
     ----------
@@ -63,31 +106,93 @@ def overview_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
     """
-    datasets = [xr.open_dataset(p, engine="netcdf4") for p in paths]
+    datasets = [open_dataset(p) for p in paths]
     has_stress = any("peak_stress" in ds for ds in datasets)
     rows = 2 if has_stress else 1
-    fig, axes = plt.subplots(rows, len(datasets), figsize=(3.2 * len(datasets), 3.0 * rows),
+    materials = list(dict.fromkeys(m for ds in datasets for m in ds.material.values.tolist()))
+    colour = {m: f"C{i}" for i, m in enumerate(materials)}
+    fig, axes = plt.subplots(rows, len(datasets), figsize=(3.4 * len(datasets), 3.2 * rows),
                              squeeze=False, constrained_layout=True)
     for col, ds in enumerate(datasets):
         family = str(ds.family.values[0])
         ok = (np.nan_to_num(ds.status.values) == 0) if "status" in ds else np.ones(
             ds.sizes["case"], bool)
-        panels = [(ds.peak_input_torque, "peak input torque [N m]", "C0")]
+        panels = [(ds.peak_input_torque, "peak input torque [N m]")]
         if has_stress and "peak_stress" in ds:
-            panels.append((ds.peak_stress.max("link") / 1e6, "peak stress [MPa]", "C3"))
-        for row, (values, label, colour) in enumerate(panels):
+            panels.append((ds.peak_stress.max("link") / 1e6, "peak stress [MPa]"))
+        for row, (values, label) in enumerate(panels):
             ax = axes[row, col]
             finite = _finite(values)
-            for mask, c, name in ((finite & ~ok, "0.6", "flagged"), (finite & ok, colour, "ok")):
-                ax.scatter(ds.speed[mask], values[mask], s=6, alpha=0.5, color=c,
-                           label=f"{name} ({int(mask.sum())})")
+            for m in materials:
+                mine = finite & (ds.material == m).values
+                ax.scatter(ds.speed[mine & ok], values[mine & ok], s=7, alpha=0.6,
+                           color=colour[m], label=f"{m}, ok ({int((mine & ok).sum())})")
+                ax.scatter(ds.speed[mine & ~ok], values[mine & ~ok], s=7, alpha=0.5,
+                           facecolors="none", edgecolors=colour[m], lw=0.6,
+                           label=f"{m}, flagged ({int((mine & ~ok).sum())})")
+                if row == 1:
+                    _allowable_line(ax, ds, m, colour[m])
             ax.set_xlabel("speed [rad/s]")
             ax.set_ylabel(label)
             _log_if_positive(ax, values[finite])
-            ax.legend(fontsize=6, loc="upper left", markerscale=1.5)
+            _clip_flagged(ax, values.values, finite & ok, finite & ~ok,
+                          _allowable(ds, materials) if row == 1 else None)
+            plain_ticks(ax.yaxis)
+        rpm_axis(axes[0, col], "speed [rpm]")
         axes[0, col].set_title(f"{family} ({ds.sizes['case']} cases)", fontsize=9)
         ds.close()
+    labels = {}
+    for ax in axes.flat:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            labels.setdefault(label.split(" (")[0] if "yield" not in label else label, handle)
+    fig.legend(labels.values(), labels.keys(), loc="outside lower center",
+               ncols=min(4, len(labels)), fontsize=7, markerscale=2)
     save(fig, png, svg)
+
+
+def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray,
+                  allowable: float | None = None) -> None:
+    """Keep the axis within a hundred times the unflagged cases' largest value (and ten times
+    the allowable stress): only blown-up responses (an unstable case at 1e8 MPa) are left
+    above, and counted, so that they do not squeeze the rest — resonance peaks stay drawn."""
+    if not ok.any() or ax.get_yscale() != "log":
+        return
+    top = max(100.0 * float(np.nanmax(values[ok])), 10.0 * (allowable or 0.0))
+    above = int((flagged & (values > top)).sum())
+    if above:
+        ax.set_ylim(top=top)
+        ax.text(0.98, 0.98, f"▲ {above} flagged above", transform=ax.transAxes, fontsize=6,
+                ha="right", va="top", color="0.3")
+
+
+def _allowable(ds: xr.Dataset, materials: list[str]) -> float | None:
+    """The largest allowable stress (yield / stress safety factor) of the materials, MPa."""
+    values = [_allowable_stress(ds, m) for m in materials]
+    values = [v for v in values if v]
+    return max(values) if values else None
+
+
+def _allowable_stress(ds: xr.Dataset, material: str) -> float | None:
+    """Yield strength / stress safety factor of ``material``, MPa, where known."""
+    from ..problem.errors import SceneError
+    from ..problem.materials import resolve_material
+
+    factor = (ds.stress_utilisation.attrs.get("stress_safety_factor")
+              if "stress_utilisation" in ds else None)
+    try:
+        strength = resolve_material(material)["yield_strength"]
+    except SceneError:  # an inline material: not in the library
+        strength = None
+    return strength / factor / 1e6 if factor and strength else None
+
+
+def _allowable_line(ax, ds: xr.Dataset, material: str, colour: str) -> None:
+    """Yield strength / stress safety factor of ``material``, dashed, where known."""
+    allowable = _allowable_stress(ds, material)
+    if allowable:
+        factor = ds.stress_utilisation.attrs["stress_safety_factor"]
+        ax.axhline(allowable, color=colour, ls="--", lw=0.9,
+                   label=f"{material}: yield / {factor:g} = {allowable:.4g} MPa")
 
 
 #: Error estimates marked on :func:`estimate_figure` (relative).
@@ -104,7 +209,7 @@ def estimate_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
     fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
     everything = []
     for i, path in enumerate(paths):
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with open_dataset(path) as ds:
             if "error_estimate" not in ds:
                 continue
             ok = np.nan_to_num(ds.status.values) == 0
@@ -214,7 +319,7 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
     """
-    with xr.open_dataset(path, engine="netcdf4") as ds:
+    with open_dataset(path) as ds:
         ds = ds.load()
     family = str(ds.family.values[0]) if "family" in ds.coords else Path(path).stem
     if "natural_frequency_min" not in ds:
@@ -226,7 +331,7 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
         return
     materials = list(dict.fromkeys(ds.material.values.tolist()))
     geometry = representative_geometry(ds)
-    fig, axes = plt.subplots(1, len(materials), figsize=(5.0 * len(materials), 4.2),
+    fig, axes = plt.subplots(1, len(materials), figsize=(5.0 * len(materials) + 2.2, 4.4),
                              squeeze=False, sharey=True, constrained_layout=True)
     speeds = np.unique(ds.speed.values)
     omega = np.linspace(0.0, speeds.max() * 1.05, 50)
@@ -264,145 +369,27 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
             y_end = k * omega[-1] / (2.0 * np.pi)
             if ylow < y_end < yhigh:
                 ax.text(omega[-1], y_end, f" {k}×", fontsize=7, va="center", color="0.3")
+        below = [k for k in HARMONICS if k * omega[-1] / (2.0 * np.pi) < ylow]
+        if below:  # not drawn inside the axes: say so rather than leave them silently absent
+            ks = f"{below[0]}…{below[-1]}" if len(below) > 1 else f"{below[0]}"
+            ax.text(0.02, 0.02, f"harmonics k = {ks} below the axis "
+                    f"(≤ {below[-1] * omega[-1] / (2.0 * np.pi):.3g} Hz)", fontsize=7,
+                    transform=ax.transAxes, color="0.3")
         ax.set_yscale("log")
         ax.set_ylim(ylow, yhigh)
+        plain_ticks(ax.yaxis)
         ax.set_xlim(0.0, omega[-1] * 1.08)
         ax.set_xlabel("input speed Ω [rad/s]")
+        rpm_axis(ax)
         ax.set_title(f"{material}", fontsize=9)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
     axes[0, 0].set_ylabel("natural frequency [Hz]")
-    axes[0, 0].legend(fontsize=7, loc="lower right")
+    # outside the data: inside, it covered the first mode's band
+    axes[0, -1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     shown = ", ".join(f"{k} {v:g}" for k, v in geometry.items())
     fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
     save(fig, png, svg)
-
-
-# ------------------------------------------------------------------------------ resonance maps
-_MAP_LENGTHS = ("crank", "coupler", "rocker", "rod", "offset")
-
-
-def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset, str, dict]:
-    """The (speed × length) slice of a family grid drawn on its resonance map.
-
-    The y axis is the length dimension with the most values that hold cases (ties: the larger
-    range); the material is ``material`` (default the first of the grid), the section the
-    first; every other length is fixed at the value whose slice holds the most cases (ties:
-    the median of those values). Returns the slice, the y name and the fixed values.
-
-    Parameters
-    ----------
-    grid : xarray.Dataset
-        A family's grid map (``maps/<family>_grid.nc``).
-    material : str, optional
-        The material of the slice.
-    """
-    material = str(grid.material.values[0]) if material is None else material
-    has = np.isfinite(grid["case"]).sel(material=material)
-    if "section" in has.dims:
-        has = has.isel(section=0)
-    lengths = [d for d in _MAP_LENGTHS if d in grid.dims]
-    def spread(d):
-        used = has.any([x for x in has.dims if x != d])
-        values = grid[d].values[used.values]
-        return (int(used.sum()), float(np.ptp(values)) if values.size else 0.0)
-    y = max(lengths, key=spread)
-    fixed: dict = {"material": material}
-    if "section" in grid.dims:
-        fixed["section"] = grid.section.values[0].item()
-    rest = has.sel(speed=has.speed)  # all speeds
-    for d in lengths:
-        if d == y:
-            continue
-        count = rest.sum([x for x in rest.dims if x != d])
-        best = grid[d].values[(count == count.max()).values]
-        value = best[len(best) // 2].item()
-        fixed[d] = value
-        rest = rest.sel({d: value})
-    return grid.sel(fixed), y, fixed
-
-
-def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = None,
-                  material: str | None = None) -> None:
-    """Resonance map of one family from its grid file: speed × one length, colour = peak
-    stress (max over links, log scale; peak input torque where no stress was computed).
-
-    Overlaid: the speeds Ω = 2π f_1 / k at which the crank harmonic k·Ω/2π meets the first
-    natural frequency f_1, k = 1…5 (solid: lowest f_1 over the cycle, dotted: highest,
-    each the median over the speeds of the slice); crosses: cases flagged resonant or
-    parametrically unstable; hatched: no case. Slice chosen by :func:`map_slice`.
-
-    Parameters
-    ----------
-    path : str or Path
-        The family's grid file.
-    png : str or Path
-        The PNG file written.
-    svg : str or Path, optional
-        The SVG file written (default: ``png`` with ``.svg``).
-    material : str, optional
-        The material of the slice (default: the grid's first).
-    """
-    from matplotlib.colors import LogNorm
-
-    with xr.open_dataset(path, engine="netcdf4") as grid:
-        grid = grid.load()
-    family = str(grid.family.values) if "family" in grid.coords else Path(path).stem
-    sl, y, fixed = map_slice(grid, material)
-    if "peak_stress" in sl:
-        value, label = sl.peak_stress.max("link") / 1e6, "peak stress, max over links [MPa]"
-    else:
-        value, label = sl.peak_input_torque, "peak input torque [N m]"
-    value = value.transpose(y, "speed")
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
-    v = value.values
-    positive = v[np.isfinite(v) & (v > 0)]
-    norm = LogNorm(positive.min(), positive.max()) if positive.size else None
-    speeds, ys = sl.speed.values, sl[y].values
-    ax.set_facecolor("0.92")
-    mesh = ax.pcolormesh(_edges(speeds), _edges(ys), np.ma.masked_invalid(v), norm=norm,
-                         cmap="viridis", shading="flat")
-    fig.colorbar(mesh, ax=ax, label=label)
-    if "status" in sl:
-        bits = np.nan_to_num(sl.status.transpose(y, "speed").values, nan=0).astype(int)
-        bad = ((bits & (4 | 8)) > 0) & (bits != STATUS_FILL)
-        if bad.any():
-            yy, xx = np.nonzero(bad)
-            ax.plot(speeds[xx], ys[yy], "x", color="r", ms=6, label="resonant / unstable")
-    if "natural_frequency_min" in sl:
-        f_lo = sl.natural_frequency_min.isel(mode=0).transpose(y, "speed").median("speed")
-        f_hi = sl.natural_frequency_max.isel(mode=0).transpose(y, "speed").median("speed")
-        for k in MAP_HARMONICS:
-            for f, ls in ((f_lo, "-"), (f_hi, ":")):
-                omega = 2.0 * np.pi * f.values / k
-                ok = np.isfinite(omega) & (omega > 0)
-                ax.plot(omega[ok], ys[ok], ls, color="w", lw=1.2)
-            ok = np.isfinite(f_lo.values) & (f_lo.values > 0)
-            if ok.any():
-                i = np.flatnonzero(ok)[-1]
-                x = 2.0 * np.pi * f_lo.values[i] / k
-                if _edges(speeds)[0] < x < _edges(speeds)[-1]:
-                    ax.text(x, ys[i], f"k={k}", color="w", fontsize=7, ha="left", va="bottom")
-    ax.set_xlim(_edges(speeds)[0], _edges(speeds)[-1])
-    ax.set_ylim(_edges(ys)[0], _edges(ys)[-1])
-    ax.set_xlabel("input speed Ω [rad/s]")
-    ax.set_ylabel(f"{y} length [m]")
-    shown = ", ".join(f"{k} {v:g} m" if k in _LENGTHS else f"{k} {v}" for k, v in fixed.items())
-    ax.set_title(f"{family}: {shown}\nwhite: k·Ω/2π = f₁, k = {MAP_HARMONICS[0]}…"
-                 f"{MAP_HARMONICS[-1]} (solid min, dotted max of f₁ over the cycle)",
-                 fontsize=8)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper right")
-    save(fig, png, svg)
-
-
-def _edges(values: np.ndarray) -> np.ndarray:
-    """Cell edges around sorted centres (half a step beyond the ends)."""
-    values = np.asarray(values, float)
-    if values.size == 1:
-        return np.array([values[0] * 0.9, values[0] * 1.1]) if values[0] else np.array([-1, 1.])
-    mid = (values[1:] + values[:-1]) / 2.0
-    return np.concatenate([[2 * values[0] - mid[0]], mid, [2 * values[-1] - mid[-1]]])
 
 
 # ------------------------------------------------------------------------------ worst case
@@ -437,122 +424,162 @@ def magnification(deflection: float, size: float, fraction: float = 0.1) -> floa
     return float(mantissa * 10**exponent)
 
 
-#: A resonant or parametrically unstable periodic state (finite but unbounded in reality), a
-#: deflection beyond the linear model's validity, or a failed case is no design answer; the
-#: worst case is chosen among the others; so is a buckled one (a link beyond its Euler load).
-_NOT_A_DESIGN_CASE = (STATUS_FLAGS["failed"] | STATUS_FLAGS["resonant"]
-                      | STATUS_FLAGS["parametrically_unstable"] | STATUS_FLAGS["large_deflection"]
-                      | STATUS_FLAGS["buckled"])
+def worst_cases(summary: xr.Dataset, error_tolerance: float = 0.05) -> dict[str, int]:
+    """Case ids of a family's worst credible case and its worst flagged one.
 
+    Worst: the largest peak stress (max over links). Credible: not flagged by any of
+    :data:`ced.study.safe_speed.NOT_CREDIBLE` and an error estimate within
+    ``error_tolerance`` (:func:`ced.study.safe_speed.credibility`); flagged: every other case
+    with a finite peak stress (a resonant or large-deflection case can show GPa: no design
+    answer, but a warning the designer must see).
 
-def _worst_case(summary: xr.Dataset) -> int | None:
-    """Case id with the largest peak stress (max over links) among cases not flagged failed,
-    resonant, parametrically unstable or large_deflection (reported by flags and maps)."""
+    Parameters
+    ----------
+    summary : xarray.Dataset
+        A family summary (``maps/<family>.nc``).
+    error_tolerance : float
+        Largest credible error estimate (dimensionless).
+
+    Returns
+    -------
+    dict
+        ``{"credible": id, "flagged": id}``, each key only where such a case exists.
+    """
     stress = summary.peak_stress.max("link").values
-    bits = (np.nan_to_num(summary.status.values).astype(int) if "status" in summary
-            else np.zeros(stress.shape, int))
-    ok = np.isfinite(stress) & ((bits & _NOT_A_DESIGN_CASE) == 0)
-    if not ok.any():
-        return None
-    return int(summary.case.values[np.flatnonzero(ok)[np.argmax(stress[ok])]])
+    n = len(stress)
+    reasons = credibility(summary.status.values if "status" in summary else np.zeros(n),
+                          summary.error_estimate.values if "error_estimate" in summary
+                          else np.full(n, np.nan), error_tolerance)
+    credible = np.array([not r for r in reasons])
+    out = {}
+    for key, mask in (("credible", credible), ("flagged", ~credible)):
+        mask = mask & np.isfinite(stress)
+        if mask.any():
+            out[key] = int(summary.case.values[np.flatnonzero(mask)[np.argmax(stress[mask])]])
+    return out
+
+
+def _case_row(fig, grid, row: int, ds: xr.Dataset, kind: str, why: str) -> None:
+    """One case: the stress history at its critical point (both fibres) and the linkage at
+    the instant of the history's peak."""
+    links = [str(n) for n in ds.link.values]
+    peak = abs(ds.stress).max(["step", "fibre"])  # (link, station)
+    where = np.unravel_index(int(np.nanargmax(peak.values)), peak.shape)
+    link, station = links[where[0]], float(ds.station.values[where[1]])
+    history = ds.stress.sel(link=link, station=station) / 1e6  # (step, fibre), MPa
+    worst = int(abs(history).max("fibre").argmax("step"))
+    drawn_peak = float(abs(history).max())
+    angle = np.unwrap(ds.crank_angle.values)
+    angle = np.degrees(angle - angle[0])
+    ax = fig.add_subplot(grid[row, 0])
+    for fibre, style in zip(history.fibre.values, ("-", "--")):
+        ax.plot(angle, history.sel(fibre=fibre), color="C3", ls=style,
+                label=f"fibre y/h = {fibre:+g}")
+    ax.axvline(angle[worst], color="0.4", lw=0.8, ls=":", label="instant drawn right")
+    ax.axhline(0.0, color="0.6", lw=0.5)
+    ax.set_ylabel(f"stress, {link} at\nstation {station:g} [MPa]")
+    plain_ticks(ax.yaxis)  # no "1e8" offset above the axis: a blown-up case reads as such
+    ax.set_xlabel("crank angle from start of the cycle [deg]")
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
+                         if k in ds.coords and ds[k].ndim == 0)
+    speed = float(ds.speed)
+    ax.set_title(f"{kind} case {int(ds.case)}: {geometry} m, {ds.material.item()}, "
+                 f"Ω = {speed:g} rad/s ({speed * 60 / (2 * np.pi):.0f} rpm)\n"
+                 f"peak of the curve {drawn_peak:.4g} MPa; {why}", fontsize=8, loc="left")
+    ax = fig.add_subplot(grid[row, 1])
+    _linkage(ax, ds, worst, links)
+
+
+def _linkage(ax, ds: xr.Dataset, step: int, links: list[str]) -> None:
+    """The linkage at ``step``: rigid (grey) and with the deflection magnified (red), in m."""
+    topo = topology("slider_crank" if "rod" in links else "four_bar")
+    pos = ds.joint_position.isel(step=step)
+    xy = ds.joint_position.values
+    size = max(float(np.ptp(xy[..., 0])), float(np.ptp(xy[..., 1]))) + 1e-9
+    w = ds.deflection.isel(step=step)
+    factor = magnification(float(abs(ds.deflection).max()), size)
+    s = ds.station.values
+    for name in links:
+        a, b = (pos.sel(joint=j).values for j in topo.links[name])
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round",
+                label="rigid" if name == links[0] else None)
+        chord = b - a
+        normal = np.array([-chord[1], chord[0]]) / (np.hypot(*chord) or 1.0)
+        line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
+        ax.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
+                label=f"deflection ×{factor:g}" if name == links[0] else None)
+    ax.plot(pos.values[:, 0], pos.values[:, 1], "ko", ms=4)
+    for j, (px, py) in zip(pos.joint.values, pos.values):
+        ax.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title(f"linkage at {np.degrees(float(ds.crank_angle[step])) % 360:.0f}° crank angle",
+                 fontsize=8)
 
 
 def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str | Path,
-                      svg: str | Path | None = None) -> None:
-    """Time history of a family's worst case: the case with the largest peak stress (max over
-    links) not flagged failed, resonant, parametrically unstable or large_deflection.
+                      svg: str | Path | None = None, error_tolerance: float = 0.05) -> None:
+    """A family's worst credible case and, below it, its worst flagged case
+    (:func:`worst_cases`).
 
-    Left: stress and transverse deflection at mid-span of the coupler (four-bar) or rod
-    (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
-    the worst instant (the step of the largest |stress| anywhere), rigid (grey) and deformed
-    with the elastic deflection magnified by the factor in the title.
+    Each row: left, the stress at both outer fibres of the case's critical point (the link
+    and station of its largest absolute stress) over one cycle of the crank; the title's peak
+    is that curve's. Right: the linkage, in metres, at the instant of that peak, rigid (grey)
+    and with the elastic deflection magnified by the round factor in its legend.
 
     Parameters
     ----------
     summary_path : str or Path
         The family summary file.
     chunk_paths : list of str
-        The family's chunk files (the time history is read from the worst case's chunk).
+        The family's chunk files (the time histories are read from the cases' chunks).
     png : str or Path
         The PNG file written.
     svg : str or Path, optional
         The SVG file written (default: ``png`` with ``.svg``).
+    error_tolerance : float
+        Largest credible error estimate (dimensionless), as in the safe-speed table.
     """
-
-    with xr.open_dataset(summary_path, engine="netcdf4") as summary:
+    with open_dataset(summary_path) as summary:
         summary = summary.load()
     family = str(summary.family.values[0]) if "family" in summary.coords else "family"
-    case = _worst_case(summary) if "peak_stress" in summary else None
-    if case is None:
+    cases = worst_cases(summary, error_tolerance) if "peak_stress" in summary else {}
+    if not cases:
         fig, ax = plt.subplots(figsize=(5, 3))
         ax.text(0.5, 0.5, f"{family}: no elastic result to show", ha="center", va="center",
                 transform=ax.transAxes)
         ax.set_axis_off()
         save(fig, png, svg)
         return
-    ds = None
+    data = {}
     for path in chunk_paths:
-        with xr.open_dataset(path, engine="netcdf4") as chunk:
-            if case in chunk.case.values:
-                ds = chunk.sel(case=case).load()
-                break
-    if ds is None:
-        raise ValueError(f"worst_case_figure: case {case} is in none of the chunk files")
-    links = [str(n) for n in ds.link.values]
-    body = "coupler" if "coupler" in links else "rod" if "rod" in links else links[-1]
-    mid = float(ds.station.sel(station=0.5, method="nearest"))
-    angle = np.unwrap(ds.crank_angle.values)
-    angle = np.degrees(angle - angle[0])
-    stress = ds.stress.sel(link=body, station=mid) / 1e6
-    defl = ds.deflection.sel(link=body, station=mid) * 1e3
-    worst = int(abs(ds.stress).max(["link", "station"]).argmax("step"))
-    fig = plt.figure(figsize=(10, 4.6), constrained_layout=True)
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1))
-    ax1, ax2 = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
-    ax1.sharex(ax2)
-    ax1.plot(angle, stress, color="C3")
-    ax1.set_ylabel(f"{body} mid-span\nstress [MPa]")
-    ax2.plot(angle, defl, color="C0")
-    ax2.set_ylabel(f"{body} mid-span\ndeflection [mm]")
-    ax2.set_xlabel("crank angle from start of the cycle [deg]")
-    for ax in (ax1, ax2):
-        ax.axvline(angle[worst], color="0.4", lw=0.8, ls="--")
-        ax.grid(True, lw=0.3)
-    ax1.label_outer()
-    # linkage at the worst instant
-    ax3 = fig.add_subplot(grid[:, 1])
-    mech = "slider_crank" if "rod" in links else "four_bar"
-    topo = topology(mech)
-    pos = ds.joint_position.isel(step=worst)
-    size = float(np.ptp(ds.joint_position.values[..., 0])) + 1e-9
-    size = max(size, float(np.ptp(ds.joint_position.values[..., 1])))
-    w = ds.deflection.isel(step=worst)
-    factor = magnification(float(abs(ds.deflection).max()), size)
-    s = ds.station.values
-    for name in links:
-        a, b = (pos.sel(joint=j).values for j in topo.links[name])
-        ax3.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round",
-                 label="rigid" if name == links[0] else None)
-        chord = b - a
-        normal = np.array([-chord[1], chord[0]]) / (np.hypot(*chord) or 1.0)
-        line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
-        ax3.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
-                 label=f"deformed (×{factor:g})" if name == links[0] else None)
-    xy = pos.values
-    ax3.plot(xy[:, 0], xy[:, 1], "ko", ms=4)
-    for j, (px, py) in zip(pos.joint.values, xy):
-        ax3.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
-    ax3.set_aspect("equal")
-    ax3.legend(fontsize=7, loc="best")
-    ax3.set_title(f"at the worst instant ({angle[worst]:.0f}°), deflection ×{factor:g}",
-                  fontsize=9)
-    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
-                         if k in ds.coords and ds[k].ndim == 0)
-
-    status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
-    fig.suptitle(f"{family}, worst case {case}: {geometry} m, {ds.material.item()}, "
-                 f"Ω = {float(ds.speed):g} rad/s, peak stress "
-                 f"{float(ds.peak_stress.max()) / 1e6:.4g} MPa\nstatus: "
-                 f"{', '.join(status_names(status))}; deflection magnified ×{factor:g}",
+        with open_dataset(path) as chunk:
+            for kind, case in cases.items():
+                if case in chunk.case.values:
+                    data[kind] = chunk.sel(case=case).load()
+    missing = set(cases) - set(data)
+    if missing:
+        raise ValueError(f"worst_case_figure: case(s) {[cases[k] for k in missing]} are in "
+                         "none of the chunk files")
+    kinds = [k for k in ("credible", "flagged") if k in data]
+    fig = plt.figure(figsize=(11, 4.0 * len(kinds) + 0.4), constrained_layout=True)
+    grid = fig.add_gridspec(len(kinds), 2, width_ratios=(1.25, 1))
+    for row, kind in enumerate(kinds):
+        ds = data[kind]
+        status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
+        error = float(ds.error_estimate) if "error_estimate" in ds else float("nan")
+        if kind == "credible":
+            why = "status: " + ", ".join(status_names(status))
+        else:
+            why = "NOT a design answer: " + credibility([status], [error], error_tolerance)[0]
+        _case_row(fig, grid, row, ds, f"worst {kind}", why)
+    absent = [f"no {k} case in this family" for k in ("credible", "flagged") if k not in data]
+    fig.suptitle(f"{family}: the worst credible and the worst flagged case by peak stress"
+                 f"{' (' + '; '.join(absent) + ')' if absent else ''}\ncredible: none of "
+                 f"{', '.join(NOT_CREDIBLE)}, error estimate ≤ {100 * error_tolerance:g} %",
                  fontsize=9)
     save(fig, png, svg)

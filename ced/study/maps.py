@@ -1,8 +1,9 @@
 """Maps: chunk datasets → per-family summaries and grid maps (docs/guide/first_study.md).
 
-Each chunk is reduced on its own (peaks over the cycle) and the small results are
-concatenated, so memory stays bounded by one chunk whatever the study size
-(:func:`reduce_family`). The per-case summary is then unstacked from ``case`` into the grid
+A family's chunks are opened lazily as one dataset (:func:`ced.study.browse.open_family`) and
+reduced block by block of cases (peaks over the cycle, fatigue); the small results are
+concatenated, so memory stays bounded by one block whatever the study or chunk size
+(:func:`reduce_family`; ``benchmarks/reduce_memory.py`` measures it). The per-case summary is then unstacked from ``case`` into the grid
 dimensions of the study — the varied lengths, ``speed``, ``material``, ``section`` — so that a
 family reads as a map (:func:`family_grid`); grid points that belong to another family (or
 cannot be assembled) are NaN there.
@@ -25,7 +26,6 @@ nan
 """
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import xarray as xr
@@ -33,6 +33,8 @@ import xarray as xr
 from ..io import write_dataset
 from ..problem.status import STATUS_DTYPE, STATUS_FILL, STATUS_FLAGS
 from ..response.periodic import INSTABILITY_MARGIN
+from .browse import open_family
+from .fatigue import case_fatigue, link_strengths
 
 __all__ = ["case_summary", "family_grid", "reduce_family", "harmonic_ratio", "stable_flag",
            "GRID_ORDER", "HARMONIC_ORDER"]
@@ -51,20 +53,6 @@ GRID_ORDER = ("crank", "coupler", "rocker", "rod", "offset", "speed", "material"
 _INT_FILL = {STATUS_DTYPE: STATUS_FILL, "int8": -1, "int32": -1, "int64": -1}
 
 
-def _yield_strength(ds: xr.Dataset) -> xr.DataArray | None:
-    """Yield strength (case, link) from the scenes stored with a chunk, NaN where unknown."""
-    if "scenes" not in ds.attrs or "link" not in ds.dims:
-        return None
-    scenes = json.loads(ds.attrs["scenes"])
-    if len(scenes) != ds.sizes["case"]:
-        return None
-    links = [str(n) for n in ds.link.values]
-    values = np.array([[s["links"][n]["material"].get("yield_strength") or np.nan
-                        for n in links] for s in scenes], float)
-    return xr.DataArray(values, dims=("case", "link"), coords={"case": ds.case, "link": ds.link},
-                        attrs={"units": "Pa", "long_name": "yield strength of the link material"})
-
-
 def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> xr.Dataset:
     """Peaks over the cycle of one simulated dataset, one value per case (and link).
 
@@ -81,8 +69,9 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
     Returns
     -------
     xarray.Dataset
-        Per case: peak stress (Pa) and deflection (m) per link, first natural frequency band
-        (Hz), distance from the nearest crank harmonic, stability, status, …
+        Per case: peak stress (Pa) and deflection (m) per link, fatigue safety factor per link
+        (:func:`ced.study.fatigue.case_fatigue`), first natural frequency band (Hz), distance
+        from the nearest crank harmonic, stability, status, …
     """
     with xr.set_options(keep_attrs=True):
         out = xr.Dataset(coords={k: v for k, v in ds.coords.items()
@@ -106,10 +95,13 @@ def case_summary(ds: xr.Dataset, stress_safety_factor: float | None = None) -> x
                 out["harmonic_ratio_min"] = harmonic_ratio(low, high, ds.speed)
         if "floquet_multiplier_max" in ds or "status" in ds:
             out["stable"] = stable_flag(ds.get("floquet_multiplier_max"), ds.get("status"))
+        fatigue = case_fatigue(ds)
+        if fatigue is not None:
+            out.update(fatigue)
         if stress_safety_factor is not None and "peak_stress" in ds:
-            strength = _yield_strength(ds)
-            if strength is not None:
-                use = stress_safety_factor * ds.peak_stress / strength
+            strengths = link_strengths(ds)
+            if strengths is not None:
+                use = stress_safety_factor * ds.peak_stress / strengths.yield_strength
                 use.attrs = {"units": "1", "long_name": "stress safety factor times peak stress "
                              "over yield strength (safe where <= 1)",
                              "stress_safety_factor": float(stress_safety_factor)}
@@ -289,7 +281,7 @@ def _depends_only_on(coord: xr.DataArray, key: xr.DataArray) -> bool:
 
 
 def reduce_family(paths: list[str], output: str, grid_output: str | None = None,
-                  stress_safety_factor: float | None = None) -> None:
+                  stress_safety_factor: float | None = None, block: int = 256) -> None:
     """Reduce a family's chunk files into ``output`` (per case) and ``grid_output`` (map).
 
     Both are netCDF, CF-described, written atomically.
@@ -304,11 +296,23 @@ def reduce_family(paths: list[str], output: str, grid_output: str | None = None,
         The grid map file.
     stress_safety_factor : float, optional
         For ``stress_utilisation`` (dimensionless).
+    block : int
+        Cases read and reduced at a time.
     """
+    # Lazily, block by block (ced.study.browse.open_family): memory is bounded by one block
+    # of cases and the summaries, whatever the number of cases or the chunk size.
+    # xarray keeps up to 128 files open, each with its decompressed-chunk caches: a few are
+    # enough when the blocks are read in order. One thread reads (Snakemake runs the jobs in
+    # parallel): dask's thread pool left each thread's malloc arena fragmented, and the
+    # resident memory then grew with the number of blocks read.
+    import dask
+
     parts = []
-    for path in paths:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            parts.append(case_summary(ds, stress_safety_factor).load())
+    with xr.set_options(file_cache_maxsize=4), dask.config.set(scheduler="synchronous"), \
+            open_family(paths) as family:
+        for start in range(0, family.sizes["case"], block):
+            ds = family.isel(case=slice(start, start + block)).load()
+            parts.append(case_summary(ds, stress_safety_factor))
     combined = xr.concat(parts, dim="case", data_vars="all", coords="different",
                          compat="equals", join="exact", combine_attrs="drop_conflicts")
     if not combined.indexes["case"].is_unique:

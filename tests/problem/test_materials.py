@@ -11,8 +11,8 @@ from ced.problem.materials import (cowper_shear_coefficient, library, material_a
                                    material_names, resolve_material, section_properties)
 from ced.problem.scene import SceneError
 
-KEYS = {"name", "source", "E", "rho", "nu", "yield_strength", "G", "lame_lambda", "lame_mu",
-        "c1", "c2"}
+KEYS = {"name", "source", "E", "rho", "nu", "yield_strength", "ultimate_strength",
+        "endurance_limit", "G", "lame_lambda", "lame_mu", "c1", "c2"}
 
 
 # -------------------------------------------------------------------------------- library
@@ -28,6 +28,29 @@ def test_library_has_the_required_materials_with_sources():
         assert 1000 < m["rho"] < 10000
         assert 0.2 < m["nu"] < 0.4
         assert 5e7 < m["yield_strength"] < 2e9
+        # fatigue data, where given, is ordered as for every metal: S_e < S_y-ish < S_u
+        if m["endurance_limit"] is not None:
+            assert m["endurance_limit"] < m["ultimate_strength"]
+            assert m["yield_strength"] < m["ultimate_strength"]
+            assert "endurance limit" in m["source"] or "fatigue strength" in m["source"]
+
+
+@pytest.mark.parametrize("name, ultimate, endurance", [
+    ("steel", 360e6, 180e6),              # S235 minimum S_u; Shigley S'e = 0.5 S_u
+    ("aluminium", 310e6, 96.5e6),         # 6061-T6, R. R. Moore at 5e8 cycles
+    ("titanium", 950e6, 510e6),           # Ti-6Al-4V unnotched at 1e7 cycles
+    ("brass", None, None),                # nothing we could cite: no fatigue result
+])
+def test_library_fatigue_data(name, ultimate, endurance):
+    m = resolve_material(name)
+    assert m["ultimate_strength"] == ultimate and m["endurance_limit"] == endurance
+
+
+def test_inline_endurance_limit_must_be_below_the_tensile_strength():
+    with pytest.raises(SceneError, match="endurance_limit") as err:
+        resolve_material({"E": 2e11, "rho": 7800, "nu": 0.3, "ultimate_strength": 4e8,
+                          "endurance_limit": 5e8})
+    assert "ultimate_strength" in err.value.message
 
 
 @pytest.mark.parametrize("name, E, rho, nu, yield_strength, source_words", [

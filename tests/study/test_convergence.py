@@ -1,4 +1,6 @@
 """Convergence studies (ced.study.convergence) on a small sweep of the slider-crank."""
+import json
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -91,3 +93,13 @@ def test_validation_ignores_settings_below_the_reference_uncertainty():
                      "reference_peak_stress": ((), 1.0, {"uncertainty": 1e-6})})
     check = estimate_validation({"x": ds})
     assert check == {"within": 0.5, "min_ratio": pytest.approx(0.1), "settings": 2}
+
+
+def test_convergence_dataset_passes_the_cf_checker(result, tmp_path):
+    from ced.io import write_dataset
+    from tests.test_cf import cf_errors
+
+    path = write_dataset(result, tmp_path / "slider_crank.nc")
+    assert cf_errors(path, tmp_path) == []
+    assert json.loads(result.attrs["reference_values"])  # the Richardson references, kept
+    assert all(str(v) for v in result.cheapest_label.values)

@@ -3,15 +3,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 import yaml
 
-from ced.study.figures import (campbell_figure, magnification, map_slice, overview_figure,
-                               resonance_map, worst_case_figure)
+from ced.study.figures import campbell_figure, magnification, overview_figure, worst_case_figure
+from ced.study.resonance_maps import map_slice, resonance_map
 from ced.study.maps import reduce_family
 from ced.study.safe_speed import write_safe_speed_table
 from ced.study.cases import chunks
 from ced.study.chunk_job import run_chunk
+from ced.io import open_dataset
+from ced.problem.errors import SceneError
+from ced.problem.status import STATUS_FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -37,21 +39,50 @@ def written(png: Path) -> bool:
 
 
 @pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
-def test_resonance_map(maps, family):
+def test_resonance_map_has_a_panel_per_material(maps, family):
     directory, out = maps
     png = directory / "resonance" / f"{family}.png"
-    resonance_map(out[family][1], png, material="steel")
+    resonance_map(out[family][1], png)
     assert written(png)
+    text = png.with_suffix(".svg").read_text()
+    for material in ("steel", "aluminium"):  # both halves of the study
+        assert material in text
+    assert "rpm" in text
+    # the harmonic speeds beyond the grid are named, not silently absent
+    assert "above the speed range" in text or "k=" in text
 
 
 def test_map_slice_picks_the_varied_length(maps):
     _, out = maps
-    with xr.open_dataset(out["crank_rocker"][1], engine="netcdf4") as grid:
-        sl, y, fixed = map_slice(grid.load())
+    with open_dataset(out["crank_rocker"][1]) as grid:
+        grid = grid.load()
+    sl, y, fixed = map_slice(grid)
     # crank_rocker of the test study: crank 0.05, coupler 0.2, rocker 0.15 / 0.2
     assert y == "rocker" and fixed["material"] == "aluminium"
     assert fixed["crank"] == 0.05 and fixed["coupler"] == 0.2
     assert set(sl.dims) >= {"rocker", "speed"} and "crank" not in sl.dims
+    # the config's slice: y and fixed values; a value off the grid is refused by name
+    sl, y, fixed = map_slice(grid, "steel", 0, y="coupler", fixed={"rocker": 0.15})
+    assert y == "coupler" and fixed["rocker"] == 0.15 and fixed["material"] == "steel"
+    with pytest.raises(SceneError, match="resonance_map.fixed.rocker") as err:
+        map_slice(grid, fixed={"rocker": 0.17})
+    assert "0.15, 0.2" in err.value.message
+
+
+def test_one_dimensional_sweep_is_drawn_as_lines(maps):
+    directory, out = maps
+    # slider_crank of the test study: one geometry, two speeds -> a sweep, not a 1-row map
+    png = directory / "resonance" / "sweep.png"
+    resonance_map(out["slider_crank"][1], png)
+    text = png.with_suffix(".svg").read_text()
+    assert "peak stress (dot: a case)" in text
+
+
+def test_harmonic_speeds():
+    from ced.study.resonance_maps import harmonic_speeds
+    omega = harmonic_speeds(np.array([10.0, -1.0]))
+    assert omega[0, 0] == pytest.approx(2 * np.pi * 10) and np.isnan(omega[:, 1]).all()
+    assert omega[4, 0] == pytest.approx(2 * np.pi * 10 / 5)
 
 
 @pytest.mark.parametrize("family", ["crank_rocker", "slider_crank"])
@@ -62,25 +93,46 @@ def test_worst_case_figure(maps, family):
     worst_case_figure(summary, paths, png)
     assert written(png)
     text = png.with_suffix(".svg").read_text()
-    assert "magnified" in text or "×" in text
+    assert "deflection ×" in text and "worst" in text
 
 
-def test_worst_case_is_largest_design_case(maps):
-    # Failed (16), resonant (4), parametrically unstable (8) and large-deflection (1) cases
-    # are not design answers.
-    from ced.study.figures import _worst_case
+def test_worst_cases_are_the_largest_credible_and_flagged(maps):
+    # credible: no flag of NOT_CREDIBLE and an error estimate within the tolerance
+    from ced.study.figures import worst_cases
 
     _, out = maps
-    with xr.open_dataset(out["crank_rocker"][0], engine="netcdf4") as ds:
+    with open_dataset(out["crank_rocker"][0]) as ds:
         ds = ds.load()
-    stress = ds.peak_stress.max("link").values.copy()
-    stress[(ds.status.values.astype(int) & (1 | 4 | 8 | 16)) != 0] = -np.inf
+    stress = ds.peak_stress.max("link").values
+    ds["error_estimate"][:] = 0.01
+    ds["status"][:] = 0
     top = int(np.argmax(stress))
-    assert _worst_case(ds) == int(ds.case[top])
-    ds["status"] = ds.status.copy(data=np.where(np.arange(ds.sizes["case"]) == top, 16,
-                                                ds.status.values).astype(ds.status.dtype))
-    stress[top] = -np.inf
-    assert _worst_case(ds) == int(ds.case[int(np.argmax(stress))])
+    assert worst_cases(ds) == {"credible": int(ds.case[top])}
+    ds["status"][top] = STATUS_FLAGS["large_deflection"]
+    second = int(np.argsort(stress)[-2])
+    assert worst_cases(ds) == {"credible": int(ds.case[second]), "flagged": int(ds.case[top])}
+    ds["error_estimate"][second] = 0.2  # above the tolerance: flagged too
+    third = int(np.argsort(stress)[-3])
+    assert worst_cases(ds, 0.05) == {"credible": int(ds.case[third]),
+                                     "flagged": int(ds.case[top])}
+    assert worst_cases(ds, 0.5)["credible"] == int(ds.case[second])
+
+
+def test_worst_case_title_peak_is_the_drawn_curve_peak(maps):
+    directory, out = maps
+    summary, _, paths = out["crank_rocker"]
+    png = directory / "worst" / "peaks.png"
+    worst_case_figure(summary, paths, png, error_tolerance=1.0)  # every unflagged case
+    text = png.with_suffix(".svg").read_text()
+    from ced.study.figures import worst_cases
+    with open_dataset(summary) as s:
+        case = worst_cases(s.load(), 1.0)["credible"]
+    for path in paths:
+        with open_dataset(path) as chunk:
+            if case in chunk.case.values:
+                drawn = float(abs(chunk.stress.sel(case=case)).max()) / 1e6
+    assert f"peak of the curve {drawn:.4g} MPa" in text
+    assert "x [m]" in text and "y [m]" in text
 
 
 def test_magnification_is_round():
@@ -111,7 +163,7 @@ def test_estimate_figure_counts_the_unflagged_cases(maps):
     assert written(png)
     unflagged = 0
     for p in paths:
-        with xr.open_dataset(p, engine="netcdf4") as ds:
+        with open_dataset(p) as ds:
             ok = ds.status.values == 0
             unflagged += int(np.isfinite(ds.error_estimate.values[ok]).sum())
     assert f"the {unflagged} unflagged cases" in png.with_suffix(".svg").read_text()

@@ -14,6 +14,7 @@ from ced.problem.status import STATUS_DTYPE, STATUS_FILL, STATUS_FLAGS
 from ced.study.maps import case_summary, family_grid, reduce_family
 from ced.study.cases import case_table, chunks
 from ced.study.chunk_job import run_chunk
+from ced.io import open_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -102,14 +103,14 @@ def test_family_grid_round_trips_through_netcdf(tmp_path):
 
     grid = family_grid(synthetic())
     path = write_dataset(grid, tmp_path / "grid.nc")
-    with xr.open_dataset(path, engine="netcdf4") as back:
+    with open_dataset(path) as back:
         assert not cf_problems(back)
         missing = dict(crank=0.2, coupler=0.4, speed=100.0, material="steel", section=0)
         assert np.isnan(back.status.sel(missing).item())  # _FillValue decodes to NaN
         assert np.isnan(back["case"].sel(missing).item())
         assert back.status.sel(crank=0.1, coupler=0.4, speed=50.0, material="steel",
                                section=0).item() == 0
-    with xr.open_dataset(path, engine="netcdf4", mask_and_scale=False) as raw:
+    with open_dataset(path, mask_and_scale=False) as raw:
         assert raw.status.dtype == STATUS_DTYPE
         assert raw.status.attrs["_FillValue"] == STATUS_FILL
 
@@ -140,7 +141,7 @@ def test_chunks_carry_family_case_ids(study):
     config, _, paths = study
     size = config["chunk_size"]
     for i, path in enumerate(paths):
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with open_dataset(path) as ds:
             assert ds.case.values.tolist() == list(range(i * size, (i + 1) * size))
             assert ds.attrs["chunk"] == f"crank_rocker/{i}"
             assert ds.section.values.tolist() == [0] * size
@@ -152,7 +153,7 @@ def test_chunks_carry_family_case_ids(study):
 def test_reduced_family(study):
     config, directory, paths = study
     rows = case_table(config, "crank_rocker", scenes=False)
-    with xr.open_dataset(directory / "map.nc", engine="netcdf4") as ds:
+    with open_dataset(directory / "map.nc") as ds:
         assert not cf_problems(ds)
         assert ds.case.values.tolist() == [r["case"] for r in rows]  # sorted back
         assert ds.speed.values.tolist() == [r["speed"] for r in rows]
@@ -167,7 +168,7 @@ def test_reduced_family(study):
             if y:
                 expect = 2.0 * ds.peak_stress.isel(case=i) / y
                 np.testing.assert_allclose(ds.stress_utilisation.isel(case=i), expect)
-        with xr.open_dataset(paths[0], engine="netcdf4") as chunk:
+        with open_dataset(paths[0]) as chunk:
             first = chunk.isel(case=0)
             np.testing.assert_allclose(ds.peak_input_torque.isel(case=0),
                                        abs(first.input_torque).max())
@@ -177,8 +178,8 @@ def test_reduced_family(study):
 
 def test_reduced_grid(study):
     config, directory, _ = study
-    with xr.open_dataset(directory / "grid.nc", engine="netcdf4") as grid, \
-            xr.open_dataset(directory / "map.nc", engine="netcdf4") as cases:
+    with open_dataset(directory / "grid.nc") as grid, \
+            open_dataset(directory / "map.nc") as cases:
         assert not cf_problems(grid)
         assert grid.attrs["grid_dimensions"] == "crank coupler rocker speed material section"
         assert dict(grid.peak_input_torque.sizes) == {  # crank_rocker points of the grid only
@@ -240,8 +241,8 @@ def test_stable_flag():
 
 def test_reduced_family_harmonics_and_stability(study):
     _, directory, _ = study
-    with xr.open_dataset(directory / "map.nc", engine="netcdf4") as ds, \
-            xr.open_dataset(directory / "grid.nc", engine="netcdf4") as grid:
+    with open_dataset(directory / "map.nc") as ds, \
+            open_dataset(directory / "grid.nc") as grid:
         assert not cf_problems(ds) and not cf_problems(grid)
         for name in ("harmonic_ratio_min", "stable", "floquet_multiplier_max"):
             assert name in ds and name in grid, name

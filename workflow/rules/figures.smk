@@ -45,7 +45,7 @@ rule campbell_figure:
 
 
 rule resonance_map:
-    """Resonance map of one family: speed x one length, peak stress, harmonics k*Omega/2pi = f1."""
+    """Resonance map of one family: a panel per material and section, harmonics k*Omega/2pi = f1."""
     input:
         "results/{study}/maps/{family}_grid.nc",
     output:
@@ -64,13 +64,15 @@ rule resonance_map:
     log:
         "results/{study}/logs/figures/resonance/{family}.log",
     params:
-        material=config["materials"][0] if isinstance(config["materials"][0], str) else None,
+        y=config["resonance_map"].get("y"),
+        fixed=config["resonance_map"].get("fixed"),
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/resonance_map.py"
 
 
 rule worst_case_figure:
-    """Time history and deformed linkage of the case with the family's largest peak stress."""
+    """Stress history and deformed linkage of the family's worst credible and flagged cases."""
     input:
         summary="results/{study}/maps/{family}.nc",
         chunks=lambda wildcards: expand(
@@ -94,12 +96,14 @@ rule worst_case_figure:
         ),
     log:
         "results/{study}/logs/figures/worst_case/{family}.log",
+    params:
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/worst_case_figure.py"
 
 
 rule safe_speed_table:
-    """Safe speed limit per geometry: factor x peak stress <= yield, not resonant/unstable."""
+    """Safe speed limit per geometry: credible cases within yield and fatigue limits."""
     input:
         expand("results/{{study}}/maps/{family}.nc", family=FAMILIES),
     output:
@@ -113,6 +117,8 @@ rule safe_speed_table:
         "results/{study}/logs/tables/safe_speed.log",
     params:
         stress_safety_factor=config["stress_safety_factor"],
+        fatigue_safety_factor=config["fatigue_safety_factor"],
+        error_tolerance=config["error_tolerance"],
     script:
         "../scripts/safe_speed_table.py"
 

@@ -11,7 +11,8 @@ if "snakemake" not in globals():  # run on its own: the Snakefile's rule, as Sna
 
 sys.stderr = open(snakemake.log[0], "w")
 
-from ced.study.figures import resonance_map  # noqa: E402
+from ced.study.resonance_maps import resonance_map  # noqa: E402
 
 resonance_map(snakemake.input[0], snakemake.output.png, snakemake.output.svg,
-              material=snakemake.params.material)
+              y=snakemake.params.y, fixed=snakemake.params.fixed,
+              error_tolerance=snakemake.params.error_tolerance)

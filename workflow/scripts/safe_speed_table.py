@@ -14,4 +14,5 @@ sys.stderr = open(snakemake.log[0], "w")
 from ced.study.safe_speed import write_safe_speed_table  # noqa: E402
 
 write_safe_speed_table(list(snakemake.input), snakemake.output.csv, snakemake.output.md,
-                       snakemake.params.stress_safety_factor)
+                       snakemake.params.stress_safety_factor,
+                       snakemake.params.fatigue_safety_factor, snakemake.params.error_tolerance)

@@ -1,4 +1,4 @@
-"""Rule worst_case_figure: time history and deformed linkage of a family's worst case.
+"""Rule worst_case_figure: stress history and deformed linkage of a family's worst credible and flagged cases.
 
 On its own, for debugging: python workflow/scripts/worst_case_figure.py [CONFIG.yaml] family=F
 """
@@ -14,4 +14,4 @@ sys.stderr = open(snakemake.log[0], "w")
 from ced.study.figures import worst_case_figure  # noqa: E402
 
 worst_case_figure(snakemake.input.summary, list(snakemake.input.chunks), snakemake.output.png,
-                  snakemake.output.svg)
+                  snakemake.output.svg, snakemake.params.error_tolerance)
