@@ -1,6 +1,7 @@
 """Figures of a study (matplotlib; every figure is written as PNG and SVG)."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import matplotlib
@@ -23,8 +24,14 @@ MAP_HARMONICS = tuple(range(1, 6))
 #: Crank harmonics k·Ω/2π drawn on Campbell diagrams.
 HARMONICS = tuple(range(1, 11))
 
-#: Lengths that identify a geometry, by mechanism type.
-_LENGTHS = ("ground", "crank", "coupler", "rocker", "rod", "offset")
+#: Lengths (m) and six-bar arm angles (rad) that identify a geometry, by mechanism type.
+_LENGTHS = ("ground", "crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle",
+            "coupler_arm", "coupler_arm_angle", "coupler2", "rocker2", "pivot2_x", "pivot2_y",
+            "rod", "offset")
+
+
+def _unit(key: str) -> str:
+    return "rad" if key.endswith("_angle") else "m"
 
 
 def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
@@ -272,14 +279,16 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
     axes[0, 0].set_ylabel("natural frequency [Hz]")
     axes[0, 0].legend(fontsize=7, loc="lower right")
-    shown = ", ".join(f"{k} {v:g}" for k, v in geometry.items())
-    fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
+    shown = ", ".join(f"{k} {v:g} {_unit(k)}" for k, v in geometry.items())
+    shown = shown if len(geometry) <= 4 else "\n" + shown + "\n"
+    fig.suptitle(f"Campbell diagram, {family} — coloured: {shown}; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
     save(fig, png, svg)
 
 
 # ------------------------------------------------------------------------------ resonance maps
-_MAP_LENGTHS = ("crank", "coupler", "rocker", "rod", "offset")
+_MAP_LENGTHS = ("crank", "coupler", "rocker", "rocker_arm", "coupler_arm", "coupler2", "rocker2",
+                "pivot2_x", "pivot2_y", "rod", "offset")
 
 
 def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset, str, dict]:
@@ -301,12 +310,12 @@ def map_slice(grid: xr.Dataset, material: str | None = None) -> tuple[xr.Dataset
     has = np.isfinite(grid["case"]).sel(material=material)
     if "section" in has.dims:
         has = has.isel(section=0)
-    lengths = [d for d in _MAP_LENGTHS if d in grid.dims]
+    lengths = [d for d in _LENGTHS if d in grid.dims]  # six-bar arm angles fixed, never y
     def spread(d):
         used = has.any([x for x in has.dims if x != d])
         values = grid[d].values[used.values]
         return (int(used.sum()), float(np.ptp(values)) if values.size else 0.0)
-    y = max(lengths, key=spread)
+    y = max([d for d in _MAP_LENGTHS if d in grid.dims], key=spread)
     fixed: dict = {"material": material}
     if "section" in grid.dims:
         fixed["section"] = grid.section.values[0].item()
@@ -387,7 +396,8 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
     ax.set_ylim(_edges(ys)[0], _edges(ys)[-1])
     ax.set_xlabel("input speed Ω [rad/s]")
     ax.set_ylabel(f"{y} length [m]")
-    shown = ", ".join(f"{k} {v:g} m" if k in _LENGTHS else f"{k} {v}" for k, v in fixed.items())
+    shown = ", ".join(f"{k} {v:g} {_unit(k)}" if k in _LENGTHS else f"{k} {v}"
+                      for k, v in fixed.items())
     ax.set_title(f"{family}: {shown}\nwhite: k·Ω/2π = f₁, k = {MAP_HARMONICS[0]}…"
                  f"{MAP_HARMONICS[-1]} (solid min, dotted max of f₁ over the cycle)",
                  fontsize=8)
@@ -521,8 +531,8 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     ax1.label_outer()
     # linkage at the worst instant
     ax3 = fig.add_subplot(grid[:, 1])
-    mech = "slider_crank" if "rod" in links else "four_bar"
-    topo = topology(mech)
+    topo = topology(json.loads(ds.attrs["scenes"])[0]["mechanism"] if "scenes" in ds.attrs
+                    else "slider_crank" if "rod" in links else "four_bar")
     pos = ds.joint_position.isel(step=worst)
     size = float(np.ptp(ds.joint_position.values[..., 0])) + 1e-9
     size = max(size, float(np.ptp(ds.joint_position.values[..., 1])))
@@ -546,11 +556,11 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     ax3.legend(fontsize=7, loc="best")
     ax3.set_title(f"at the worst instant ({angle[worst]:.0f}°), deflection ×{factor:g}",
                   fontsize=9)
-    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
+    geometry = ", ".join(f"{k} {float(ds[k]):g} {_unit(k)}" for k in _LENGTHS
                          if k in ds.coords and ds[k].ndim == 0)
 
     status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
-    fig.suptitle(f"{family}, worst case {case}: {geometry} m, {ds.material.item()}, "
+    fig.suptitle(f"{family}, worst case {case}: {geometry}, {ds.material.item()}, "
                  f"Ω = {float(ds.speed):g} rad/s, peak stress "
                  f"{float(ds.peak_stress.max()) / 1e6:.4g} MPa\nstatus: "
                  f"{', '.join(status_names(status))}; deflection magnified ×{factor:g}",

@@ -63,7 +63,9 @@ def safe_speed(speeds, peak_stress, status, yield_strength: float | None,
     return float(speeds[n - 1]) if n else None
 
 
-_GEOMETRY = ("ground", "crank", "coupler", "rocker", "rod", "offset", "slider_mass")
+_GEOMETRY = ("ground", "crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle",
+             "coupler_arm", "coupler_arm_angle", "coupler2", "rocker2", "pivot2_x", "pivot2_y",
+             "rod", "offset", "slider_mass")
 
 
 def safe_speed_table(summaries: list[xr.Dataset], stress_safety_factor: float = 2.0):
