@@ -333,7 +333,8 @@ def geometry_counts(config: dict) -> dict[str, dict[str, int]]:
 
 def family_kept(config: dict, kind: str, family: str) -> bool:
     """Whether the study keeps a family: named in ``families``, or a six-bar family whose
-    type is named there alone (``watt_ii`` keeps every Watt II family).
+    type is named there alone (``watt_ii`` keeps every Watt II family); every family if the
+    config has no ``families`` (the case part of a config, :func:`case_config`).
 
     Parameters
     ----------
@@ -346,7 +347,9 @@ def family_kept(config: dict, kind: str, family: str) -> bool:
     -------
     bool
     """
-    keep = config.get("families", FAMILIES)
+    keep = config.get("families")
+    if keep is None:  # a chunk job's config (case_config): every family
+        return True
     return family in keep or (kind in SIX_BARS and kind in keep)
 
 

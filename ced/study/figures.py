@@ -472,10 +472,11 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     """Time history of a family's worst case: the case with the largest peak stress (max over
     links) not flagged failed, resonant, parametrically unstable or large_deflection.
 
-    Left: stress and transverse deflection at mid-span of the coupler (four-bar) or rod
-    (slider-crank) against the crank angle, the worst instant marked. Right: the linkage at
-    the worst instant (the step of the largest |stress| anywhere), rigid (grey) and deformed
-    with the elastic deflection magnified by the factor in the title.
+    Left: stress and transverse deflection at mid-span of the coupler (four-bar), rod
+    (slider-crank) or the link of the peak stress (six-bar) against the crank angle, the worst
+    instant marked. Right: the linkage at the worst instant (the step of the largest |stress|
+    anywhere), rigid (grey; a ternary link's arm to its point too) and deformed with the
+    elastic deflection magnified by the factor in the title.
 
     Parameters
     ----------
@@ -510,6 +511,8 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
         raise ValueError(f"worst_case_figure: case {case} is in none of the chunk files")
     links = [str(n) for n in ds.link.values]
     body = "coupler" if "coupler" in links else "rod" if "rod" in links else links[-1]
+    if "coupler2" in links:  # a six-bar: the link of the peak stress, wherever it is
+        body = links[int(ds.peak_stress.argmax("link"))]
     mid = float(ds.station.sel(station=0.5, method="nearest"))
     angle = np.unwrap(ds.crank_angle.values)
     angle = np.degrees(angle - angle[0])
@@ -548,6 +551,9 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
         line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
         ax3.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
                  label=f"deformed (×{factor:g})" if name == links[0] else None)
+    for point, host in topo.points.items():  # a rigid ternary link's arm to its point
+        a, b = pos.sel(joint=topo.links[host][0]).values, pos.sel(joint=point).values
+        ax3.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round")
     xy = pos.values
     ax3.plot(xy[:, 0], xy[:, 1], "ko", ms=4)
     for j, (px, py) in zip(pos.joint.values, xy):
@@ -556,8 +562,9 @@ def worst_case_figure(summary_path: str | Path, chunk_paths: list[str], png: str
     ax3.legend(fontsize=7, loc="best")
     ax3.set_title(f"at the worst instant ({angle[worst]:.0f}°), deflection ×{factor:g}",
                   fontsize=9)
-    geometry = ", ".join(f"{k} {float(ds[k]):g} {_unit(k)}" for k in _LENGTHS
-                         if k in ds.coords and ds[k].ndim == 0)
+    keys = [k for k in _LENGTHS if k in ds.coords and ds[k].ndim == 0]
+    geometry = ", ".join(f"{k} {float(ds[k]):g} {_unit(k)}" for k in keys)
+    geometry = geometry if len(keys) <= 5 else "\n" + geometry + "\n"
 
     status = int(np.nan_to_num(ds.status.item())) if "status" in ds else 0
     fig.suptitle(f"{family}, worst case {case}: {geometry}, {ds.material.item()}, "
