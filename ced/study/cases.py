@@ -37,17 +37,15 @@ import numpy as np
 from ..problem.errors import SceneError
 from ..problem.linkage import four_bar_loops
 from ..problem.materials import resolve_material
-from ..problem.mechanism import FAMILIES, assembly_error, classify
+from ..problem.mechanism import assembly_error, classify
 from ..problem.scene import BLOCKS
 
 __all__ = [
     "GRID_KEYS",
     "FIXED_KEYS",
     "SIX_BARS",
-    "LOOP_FAMILIES",
     "CASE_KEYS",
     "six_bar_family",
-    "family_kind",
     "family_kept",
     "drive_amplitude",
     "geometry_counts",
@@ -77,8 +75,6 @@ __all__ = [
 
 #: Six-bar presets a study can grid (docs/guide/six_bars.md).
 SIX_BARS = ("watt_ii", "stephenson_iii")
-#: Grashof families of a four-bar loop (the parts of a six-bar family's name).
-LOOP_FAMILIES = tuple(f for f in FAMILIES if f != "slider_crank")
 _SECOND_LOOP = ("coupler2", "rocker2", "pivot2_x", "pivot2_y")
 #: Keys spanned by the grids of each mechanism type (lengths in m, angles in rad), in
 #: case-table order.
@@ -159,39 +155,17 @@ def six_bar_family(mechanism: Mapping) -> str:
     Returns
     -------
     str
-        e.g. ``watt_ii-crank_rocker-double_rocker``, ``stephenson_iii-crank_rocker``.
+        e.g. ``watt_ii-crank_rocker-triple_rocker``, ``stephenson_iii-crank_rocker``.
 
     Examples
     --------
     >>> six_bar_family({"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
     ...                 "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5,
     ...                 "coupler2": 0.4, "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3})
-    'watt_ii-crank_rocker-double_rocker'
+    'watt_ii-crank_rocker-crank_rocker'
     """
     loops = [classify(*loop) for loop in four_bar_loops(mechanism)]
     return "-".join([mechanism["type"], *loops])
-
-
-def family_kind(family: str) -> str:
-    """Mechanism type of a study family (``four_bar`` for a Grashof family).
-
-    Parameters
-    ----------
-    family : str
-        A family name, or a six-bar type written alone in ``families`` (all its families).
-
-    Returns
-    -------
-    str
-        ``four_bar``, ``slider_crank``, ``watt_ii`` or ``stephenson_iii``.
-
-    Examples
-    --------
-    >>> family_kind("double_rocker"), family_kind("watt_ii-crank_rocker-double_rocker")
-    ('four_bar', 'watt_ii')
-    """
-    kind = family.split("-")[0]
-    return kind if kind in SIX_BARS or kind == "slider_crank" else "four_bar"
 
 
 def drive_amplitude(config: dict) -> float:
@@ -207,12 +181,14 @@ def drive_amplitude(config: dict) -> float:
     Returns
     -------
     float
-        The amplitude (1.0 if the base scene's value is not a number: its scene check reports
-        that).
+        The amplitude (1.0 if the base scene's value is not a number in (0, 1]: its scene
+        check reports that).
     """
     drive = (config.get("base_scene") or {}).get("drive") or {}
     amplitude = drive.get("amplitude", BLOCKS["drive"]["amplitude"][1])
-    return float(amplitude) if isinstance(amplitude, (int, float)) else 1.0
+    valid = (isinstance(amplitude, (int, float)) and not isinstance(amplitude, bool)
+             and 0.0 < amplitude <= 1.0)
+    return float(amplitude) if valid else 1.0
 
 
 def grid_geometries(config: dict, kind: str):

@@ -314,7 +314,8 @@ class StudyEstimate:
         dropped = "".join(f"; {n} {kind} geometries not assemblable, dropped"
                           for kind, n in self.not_assemblable.items())
         return (f"{self.cases} cases ({self.grid_points} grid points before the assembly "
-                f"check and family filter{dropped}) in {jobs} chunk jobs ({per_family}); estimated "
+                f"check and family filter{dropped}) in {jobs} chunk jobs ({per_family}); "
+                f"estimated "
                 f"output {size_text(self.output_bytes)} uncompressed; estimated peak memory per "
                 f"chunk job {size_text(self.chunk_memory_bytes)}")
 
@@ -328,7 +329,8 @@ def _scene_error(err: SceneError, kind: str, material: int, section: int) -> Sce
     for prefix, target in moves.items():
         if path == prefix or path.startswith(prefix + ".") or path.startswith(prefix + "["):
             return SceneError(target + path[len(prefix):], err.message)
-    if path.startswith("mechanism.") and path.split(".")[1] in GRID_KEYS[kind] + FIXED_KEYS[kind]:
+    if path.startswith("mechanism.") and (path.split(".")[1]
+                                          in GRID_KEYS[kind] + FIXED_KEYS[kind]):
         return SceneError(f"grids.{kind}.{path.split('.')[1]}", err.message)
     if path == "<scene>":
         return SceneError("base_scene", err.message)

@@ -43,7 +43,8 @@ def test_assembly_check_is_the_scenes(six_bar):
             families[name] = families.get(name, 0) + 1
     counts = geometry_counts(six_bar)
     assert counts == {
-        "watt_ii": {"grid": 24, "not_assemblable": refused["watt_ii"], "kept": 24 - refused["watt_ii"]},
+        "watt_ii": {"grid": 24, "not_assemblable": refused["watt_ii"],
+                    "kept": 24 - refused["watt_ii"]},
         "stephenson_iii": {"grid": 6, "not_assemblable": refused["stephenson_iii"],
                            "kept": 6 - refused["stephenson_iii"]}}
     # the shipped grid has geometries of both kinds that cannot follow the input's turn
