@@ -78,6 +78,8 @@ def _check(args: argparse.Namespace) -> int:
     print(f"{args.config}: valid")
     print(f"cases: {estimate.cases} ({estimate.grid_points} grid points before the assembly "
           f"check and family filter)")
+    for kind, n in estimate.not_assemblable.items():
+        print(f"not assemblable over the whole input motion: {n} {kind} geometries (dropped)")
     print(f"chunk jobs: {sum(estimate.chunks.values())} ("
           + ", ".join(f"{f} {n}" for f, n in estimate.chunks.items()) + ")")
     print(f"estimated output: {estimate.output_bytes / 1e9:.3g} GB uncompressed")

@@ -87,7 +87,7 @@ def test_huge_grid_is_refused_without_building_it(monkeypatch):
 
     for module in (ced.study.cases, ced.study.config):
         monkeypatch.setattr(module, "grid_values", forbidden)
-        monkeypatch.setattr(module, "assemblable_geometries", forbidden)
+        monkeypatch.setattr(module, "split_geometries", forbidden)
     config = load_config(HERE / "bad_configs" / "absurdly_large_grid.yaml")
     with pytest.raises(SceneError) as err:
         validate_config(config)

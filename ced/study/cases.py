@@ -35,12 +35,22 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..problem.errors import SceneError
+from ..problem.linkage import four_bar_loops
 from ..problem.materials import resolve_material
-from ..problem.mechanism import FAMILIES, assembly_error, classify
+from ..problem.mechanism import assembly_error, classify
+from ..problem.scene import BLOCKS
 
 __all__ = [
     "GRID_KEYS",
+    "FIXED_KEYS",
+    "SIX_BARS",
     "CASE_KEYS",
+    "six_bar_family",
+    "family_kept",
+    "drive_amplitude",
+    "geometry_counts",
+    "split_geometries",
+    "grid_geometries",
     "grid_values",
     "grid_axes",
     "axis_length",
@@ -63,10 +73,25 @@ __all__ = [
 ]
 
 
-#: Length keys spanned by the grids of each mechanism type, in case-table order.
+#: Six-bar presets a study can grid (docs/guide/six_bars.md).
+SIX_BARS = ("watt_ii", "stephenson_iii")
+_SECOND_LOOP = ("coupler2", "rocker2", "pivot2_x", "pivot2_y")
+#: Keys spanned by the grids of each mechanism type (lengths in m, angles in rad), in
+#: case-table order.
 GRID_KEYS = {
     "four_bar": ("crank", "coupler", "rocker"),
     "slider_crank": ("crank", "rod", "offset"),
+    "watt_ii": ("crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle", *_SECOND_LOOP),
+    "stephenson_iii": ("crank", "coupler", "rocker", "coupler_arm", "coupler_arm_angle",
+                       *_SECOND_LOOP),
+}
+#: Keys of a mechanism type's grid block that take one value for the whole study (the
+#: ground length is one so that a family's maps share their frame; a branch is a choice).
+FIXED_KEYS = {
+    "four_bar": ("ground",),
+    "slider_crank": ("slider_mass",),
+    "watt_ii": ("ground", "branch", "branch2"),
+    "stephenson_iii": ("ground", "branch", "branch2"),
 }
 #: Config keys that define the cases (and so the chunk files); the rest (study name, families
 #: kept, reduction settings) can change without re-simulating anything.
@@ -115,9 +140,101 @@ def grid_values(spec, path: str = "grid") -> list[float]:
     return [float(v) for v in values]
 
 
-def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
-    """(mechanism type, family, lengths) of every assemblable geometry of the grids, in table
-    order, whatever the families kept.
+def six_bar_family(mechanism: Mapping) -> str:
+    """Study family of a six-bar: its type and the Grashof type of each four-bar loop.
+
+    A ``watt_ii`` has two four-bar loops (A–B–C–D, then D–E–F–G driven by the rocker's arm),
+    a ``stephenson_iii`` one (its second loop is a five-bar,
+    :func:`ced.problem.linkage.four_bar_loops`); the parts are joined by ``-``.
+
+    Parameters
+    ----------
+    mechanism : mapping
+        A six-bar mechanism block (type, lengths in m, angles in rad).
+
+    Returns
+    -------
+    str
+        e.g. ``watt_ii-crank_rocker-triple_rocker``, ``stephenson_iii-crank_rocker``.
+
+    Examples
+    --------
+    >>> six_bar_family({"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+    ...                 "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5,
+    ...                 "coupler2": 0.4, "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3})
+    'watt_ii-crank_rocker-crank_rocker'
+    """
+    loops = [classify(*loop) for loop in four_bar_loops(mechanism)]
+    return "-".join([mechanism["type"], *loops])
+
+
+def drive_amplitude(config: dict) -> float:
+    """``drive.amplitude`` of the base scene (the scene default if not given): the fraction of
+    a rocker input's feasible half-range its oscillation sweeps, over which a six-bar with a
+    rocker-input first loop must assemble.
+
+    Parameters
+    ----------
+    config : dict
+        A study config.
+
+    Returns
+    -------
+    float
+        The amplitude (1.0 if the base scene's value is not a number in (0, 1]: its scene
+        check reports that).
+    """
+    drive = (config.get("base_scene") or {}).get("drive") or {}
+    amplitude = drive.get("amplitude", BLOCKS["drive"]["amplitude"][1])
+    valid = (isinstance(amplitude, (int, float)) and not isinstance(amplitude, bool)
+             and 0.0 < amplitude <= 1.0)
+    return float(amplitude) if valid else 1.0
+
+
+def grid_geometries(config: dict, kind: str):
+    """(lengths, mechanism block) of every grid geometry of one mechanism type, in table order.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    kind : str
+        A mechanism type of :data:`GRID_KEYS` (none if the config has no grid of it).
+
+    Yields
+    ------
+    lengths : dict
+        The geometry's grid values and fixed ground length (the case coordinates).
+    mechanism : dict
+        Its mechanism block for :func:`ced.problem.mechanism.assembly_error` (with the
+        branches of a six-bar).
+    """
+    grid = config.get("grids", {}).get(kind)
+    if not grid:
+        return
+    keys = GRID_KEYS[kind]
+    axes = [grid_values(grid.get(k, [0.0]), f"grids.{kind}.{k}") for k in keys]
+    fixed = {k: grid[k] for k in FIXED_KEYS[kind] if k in grid}
+    for values in itertools.product(*axes):
+        lengths = dict(zip(keys, values))
+        if "ground" in fixed:
+            lengths = {"ground": float(fixed["ground"]), **lengths}
+        mechanism = {"type": kind, **lengths}
+        if kind in SIX_BARS:
+            mechanism.update(branch=fixed.get("branch", "open"),
+                             branch2=fixed.get("branch2", "open"))
+        yield lengths, mechanism
+
+
+def _family_of(kind: str, lengths: dict, mechanism: dict) -> str:
+    if kind == "four_bar":
+        return classify(**lengths)
+    return six_bar_family(mechanism) if kind in SIX_BARS else kind
+
+
+def split_geometries(config: dict) -> tuple[list[tuple[str, str, dict]], dict[str, int]]:
+    """Assemblable geometries (as :func:`assemblable_geometries`) and, per mechanism type,
+    the number of grid geometries that cannot be assembled.
 
     Parameters
     ----------
@@ -127,24 +244,93 @@ def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
     Returns
     -------
     list of (str, str, dict)
-        Mechanism type, family and lengths (m) of each geometry.
+        :func:`assemblable_geometries`.
+    dict of str to int
+        Geometries refused per mechanism type (only types with some).
     """
-    out = []
-    for kind, keys in GRID_KEYS.items():
-        grid = config.get("grids", {}).get(kind)
-        if not grid:
-            continue
-        spec = {k: grid.get(k, [0.0] if k == "offset" else None) for k in keys}
-        axes = [grid_values(spec[k], f"grids.{kind}.{k}") for k in keys]
-        for values in itertools.product(*axes):
-            lengths = dict(zip(keys, values))
-            if kind == "four_bar":
-                lengths = {"ground": float(grid["ground"]), **lengths}
-            if assembly_error({"type": kind, **lengths}):
+    out, refused = [], {}
+    amplitude = drive_amplitude(config)
+    for kind in GRID_KEYS:
+        for lengths, mechanism in grid_geometries(config, kind):
+            if assembly_error(mechanism, amplitude):
+                refused[kind] = refused.get(kind, 0) + 1
                 continue
-            family = classify(**lengths) if kind == "four_bar" else kind
-            out.append((kind, family, lengths))
-    return out
+            out.append((kind, _family_of(kind, lengths, mechanism), lengths))
+    return out, refused
+
+
+def assemblable_geometries(config: dict) -> list[tuple[str, str, dict]]:
+    """(mechanism type, family, lengths) of every assemblable geometry of the grids, in table
+    order, whatever the families kept.
+
+    A six-bar must assemble over the whole motion of its input (a full turn, or the rocker
+    input's oscillation of ``base_scene.drive.amplitude``), as its scene requires
+    (:func:`ced.problem.mechanism.assembly_error`); its family is :func:`six_bar_family`.
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    list of (str, str, dict)
+        Mechanism type, family and lengths (m; six-bar angles in rad) of each geometry.
+    """
+    return split_geometries(config)[0]
+
+
+def geometry_counts(config: dict) -> dict[str, dict[str, int]]:
+    """Grid geometries of each mechanism type of the study: in total, assemblable, refused
+    (cannot be assembled over the whole input motion) and kept (in the families asked for).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+
+    Returns
+    -------
+    dict of str to dict
+        ``{kind: {"grid": n, "not_assemblable": n, "kept": n}}`` for each type in ``grids``.
+    """
+    geometries, refused = split_geometries(config)
+    kept = _kept(config, geometries)
+    counts = {}
+    for kind in GRID_KEYS:
+        if not config.get("grids", {}).get(kind):
+            continue
+        good = sum(g[0] == kind for g in geometries)
+        counts[kind] = {"grid": good + refused.get(kind, 0),
+                        "not_assemblable": refused.get(kind, 0),
+                        "kept": sum(g[0] == kind for g in kept)}
+    return counts
+
+
+def family_kept(config: dict, kind: str, family: str) -> bool:
+    """Whether the study keeps a family: named in ``families``, or a six-bar family whose
+    type is named there alone (``watt_ii`` keeps every Watt II family); every family if the
+    config has no ``families`` (the case part of a config, :func:`case_config`).
+
+    Parameters
+    ----------
+    config : dict
+        A validated study config (:func:`ced.study.config.validate_config`).
+    kind, family : str
+        Mechanism type and family of a geometry.
+
+    Returns
+    -------
+    bool
+    """
+    keep = config.get("families")
+    if keep is None:  # a chunk job's config (case_config): every family
+        return True
+    return family in keep or (kind in SIX_BARS and kind in keep)
+
+
+def _kept(config: dict, geometries: list) -> list[tuple[str, str, dict]]:
+    return [g for g in geometries if family_kept(config, g[0], g[1])]
 
 
 def kept_geometries(config: dict) -> list[tuple[str, str, dict]]:
@@ -160,8 +346,7 @@ def kept_geometries(config: dict) -> list[tuple[str, str, dict]]:
     list of (str, str, dict)
         Mechanism type, family and lengths (m) of each geometry.
     """
-    keep = set(config.get("families", FAMILIES))
-    return [g for g in assemblable_geometries(config) if g[1] in keep]
+    return _kept(config, assemblable_geometries(config))
 
 
 def inner_points(config: dict) -> list[tuple[float, int, int]]:
@@ -226,11 +411,14 @@ def scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
     """
     base = copy.deepcopy(config.get("base_scene") or {})
     # Keys of a base mechanism block other than type and lengths (e.g. branch) carry over.
+    grid = config["grids"][kind]
     mechanism = {k: v for k, v in (base.get("mechanism") or {}).items()
-                 if k not in ("type", "ground", *GRID_KEYS[kind], "slider_mass")}
+                 if k not in ("type", "ground", *FIXED_KEYS[kind], *GRID_KEYS[kind])}
     mechanism.update({"type": kind, **lengths})
     if kind == "slider_crank":
-        mechanism["slider_mass"] = float(config["grids"]["slider_crank"].get("slider_mass", 0.0))
+        mechanism["slider_mass"] = float(grid.get("slider_mass", 0.0))
+    mechanism.update({k: grid[k] for k in ("branch", "branch2")
+                      if k in FIXED_KEYS[kind] and k in grid})
     base["mechanism"] = mechanism
     links = base.setdefault("links", {})
     default = links.setdefault("default", {})

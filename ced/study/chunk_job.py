@@ -26,7 +26,9 @@ def run_chunk(config: dict, family: str, index: int, output: str | Path,
     """Simulate one chunk and write its dataset atomically.
 
     The dataset's ``case`` coordinate is the case id within the family; ``section`` (index
-    into the config's sections) is added as a case coordinate beside the section sizes.
+    into the config's sections) is added as a case coordinate beside the section sizes;
+    ``family`` is the study family (:func:`ced.study.cases.six_bar_family` for a six-bar,
+    whose simulated dataset names only its first loop's Grashof type).
 
     Parameters
     ----------
@@ -55,6 +57,9 @@ def run_chunk(config: dict, family: str, index: int, output: str | Path,
         case=("case", np.array([r["case"] for r in rows]), ds.case.attrs),
         section=("case", np.array([r["section"] for r in rows], dtype="int32"),
                  {"units": "1", "long_name": "index of the section in the study's sections"}),
+        family=("case", np.array([r["family"] for r in rows], dtype=object),
+                {"long_name": "mechanism family (a six-bar's: its type and the Grashof type "
+                              "of each four-bar loop)"}),
     )
     ds.case.attrs.update(units="1", long_name="case id within the family")
     ds.attrs["study"] = str(study if study is not None else config.get("study", "study"))

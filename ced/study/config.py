@@ -39,8 +39,9 @@ from ..problem.mechanism import assembly_error
 from ..problem.scene import load_scene
 from ..problem.yaml_files import check_structure, load_yaml
 from ..simulation.size import case_bytes, case_seconds, machine_memory, run_memory, size_text
-from .cases import (GRID_KEYS, assemblable_geometries, axis_length, case_row, grid_axes,
-                    grid_points, grid_values, inner_points, material_names, scene_for)
+from .cases import (FIXED_KEYS, GRID_KEYS, axis_length, case_row, drive_amplitude, family_kept,
+                    grid_axes, grid_geometries, grid_points, grid_values, inner_points,
+                    material_names, scene_for, split_geometries)
 from .convergence import load_sweep
 
 __all__ = [
@@ -146,6 +147,8 @@ def _schema_error(err) -> SceneError:
     """A :class:`SceneError` (key path + plain message) for one ``jsonschema`` error."""
     from jsonschema.exceptions import best_match
 
+    if err.parent is not None and err.parent.validator == "anyOf":
+        err = err.parent  # a name from a list or of a pattern: report against both
     kind, rule, value = err.validator, err.validator_value, err.instance
     path = _path(err.absolute_path)
     got = f"got {shown(value)}"
@@ -165,6 +168,11 @@ def _schema_error(err) -> SceneError:
             return _schema_error(best_match(errors))
         words = " or ".join(_TYPE_WORDS.get(t, str(t)) for t in branches)
         return SceneError(path, f"must be {words}, {got}")
+    if kind == "anyOf" and any("enum" in sub for sub in rule):
+        # A name from a list or of a pattern (families): list both, not the pattern itself.
+        named = [v for sub in rule for v in sub.get("enum", [])]
+        named += [sub["description"] for sub in rule if "pattern" in sub]
+        return SceneError(path, f"unknown value {shown(value)}; allowed: {join(named)}")
     if kind == "additionalProperties":
         allowed = list(err.schema.get("properties", {}))
         extra = next(k for k in value if k not in allowed)
@@ -268,6 +276,9 @@ class StudyEstimate:
         Snakemake jobs besides the chunks: per family its reduction, resonance map and
         worst-case figure (and Campbell diagram with a modal analysis), and the study's
         overview, safe-speed table and fidelity ladder.
+    not_assemblable : dict of str to int
+        Grid geometries of each mechanism type dropped because they cannot be assembled over
+        the whole input motion (types with none are left out).
     """
 
     grid_points: int
@@ -279,6 +290,7 @@ class StudyEstimate:
     case_seconds: dict = dataclasses.field(default_factory=dict)
     other_jobs: int = 0
     family_cases: dict = dataclasses.field(default_factory=dict)
+    not_assemblable: dict = dataclasses.field(default_factory=dict)
 
     def run_seconds(self, cores: int) -> float:
         """Estimated wall time of the whole pipeline on ``cores`` cores, s.
@@ -299,8 +311,11 @@ class StudyEstimate:
     def summary(self) -> str:
         jobs = sum(self.chunks.values())
         per_family = ", ".join(f"{f} {n}" for f, n in self.chunks.items())
+        dropped = "".join(f"; {n} {kind} geometries not assemblable, dropped"
+                          for kind, n in self.not_assemblable.items())
         return (f"{self.cases} cases ({self.grid_points} grid points before the assembly "
-                f"check and family filter) in {jobs} chunk jobs ({per_family}); estimated "
+                f"check and family filter{dropped}) in {jobs} chunk jobs ({per_family}); "
+                f"estimated "
                 f"output {size_text(self.output_bytes)} uncompressed; estimated peak memory per "
                 f"chunk job {size_text(self.chunk_memory_bytes)}")
 
@@ -314,7 +329,8 @@ def _scene_error(err: SceneError, kind: str, material: int, section: int) -> Sce
     for prefix, target in moves.items():
         if path == prefix or path.startswith(prefix + ".") or path.startswith(prefix + "["):
             return SceneError(target + path[len(prefix):], err.message)
-    if path.startswith("mechanism.") and path.split(".")[1] in GRID_KEYS[kind]:
+    if path.startswith("mechanism.") and (path.split(".")[1]
+                                          in GRID_KEYS[kind] + FIXED_KEYS[kind]):
         return SceneError(f"grids.{kind}.{path.split('.')[1]}", err.message)
     if path == "<scene>":
         return SceneError("base_scene", err.message)
@@ -365,34 +381,32 @@ def _check_map_slice(config: dict) -> None:
 def _check_families(config: dict, geometries: list) -> None:
     """Every mechanism type of the grids has an assemblable geometry, and a kept family has
     a case."""
-    for kind, keys in GRID_KEYS.items():
+    for kind in GRID_KEYS:
         grid = config["grids"].get(kind)
         if grid and not any(g[0] == kind for g in geometries):
-            spec = {k: grid.get(k, [0.0]) for k in keys}
-            lengths = {k: grid_values(spec[k])[0] for k in keys}
-            if kind == "four_bar":
-                lengths = {"ground": grid["ground"], **lengths}
+            lengths, mechanism = next(grid_geometries(config, kind))
             example = ", ".join(f"{k} {v:g}" for k, v in lengths.items())
-            reason = assembly_error({"type": kind, **lengths})
+            reason = assembly_error(mechanism, drive_amplitude(config))
             raise SceneError(f"grids.{kind}", f"no geometry of the grid can be assembled, "
                                               f"e.g. {example}: {reason}")
     produced = {}
     for _, family, _ in geometries:
         produced[family] = produced.get(family, 0) + 1
     keep = config["families"]
-    if not any(f in produced for f in keep):
+    if not any(family_kept(config, g[0], g[1]) for g in geometries):
         made = ", ".join(f"{f} ({n} geometries)" for f, n in produced.items())
         raise SceneError("families", f"the grids give no case of the families asked for "
                                      f"({join(keep)}); they produce: {made}")
 
 
-def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyEstimate:
+def _estimate(config: dict, geometries: list, scenes: dict[str, dict],
+              refused: dict[str, int]) -> StudyEstimate:
     size = int(config["chunk_size"])
     inner = len(inner_points(config))
     sizes: dict[str, int] = {}
     kinds: dict[str, str] = {}
     for kind, family, _ in geometries:
-        if family in config["families"]:
+        if family_kept(config, kind, family):
             sizes[family] = sizes.get(family, 0) + inner
             kinds[family] = kind
     output = sum(n * case_bytes(scenes[kinds[f]]) for f, n in sizes.items())
@@ -404,13 +418,20 @@ def _estimate(config: dict, geometries: list, scenes: dict[str, dict]) -> StudyE
         chunks={f: math.ceil(n / size) for f, n in sizes.items()}, output_bytes=output,
         largest_chunk=largest, chunk_memory_bytes=memory,
         case_seconds={f: case_seconds(scenes[kinds[f]]) for f in sizes},
-        other_jobs=len(sizes) * (4 if modal else 3) + 3, family_cases=dict(sizes))
+        other_jobs=len(sizes) * (4 if modal else 3) + 3, family_cases=dict(sizes),
+        not_assemblable=dict(refused))
 
 
 #: A linkage of each mechanism type that can be assembled, to size a case before the grid is
 #: built (the sizes of :func:`case_bytes` do not depend on the lengths).
 _STAND_IN = {"four_bar": {"ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35},
-             "slider_crank": {"crank": 0.15, "rod": 0.3, "offset": 0.0}}
+             "slider_crank": {"crank": 0.15, "rod": 0.3, "offset": 0.0},
+             "watt_ii": {"ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+                         "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4,
+                         "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3},
+             "stephenson_iii": {"ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+                                "coupler_arm": 0.3, "coupler_arm_angle": 0.6, "coupler2": 0.4,
+                                "rocker2": 0.3, "pivot2_x": 0.4, "pivot2_y": 0.55}}
 
 
 def _upper_bounds(config: dict) -> str:
@@ -464,11 +485,11 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
     if repeated:
         raise SceneError("materials", f"material names must be distinct, repeated: "
                                       f"{join(repeated)}")
-    geometries = assemblable_geometries(config)
+    geometries, refused = split_geometries(config)
     _check_families(config, geometries)
-    kept = [g for g in geometries if g[1] in config["families"]]
+    kept = [g for g in geometries if family_kept(config, g[0], g[1])]
     scenes = _check_scenes(config, kept)
-    estimate = _estimate(config, kept, scenes)
+    estimate = _estimate(config, kept, scenes, refused)
     if estimate.output_bytes > MAX_OUTPUT_BYTES:
         raise SceneError("grids", f"estimated output {size_text(estimate.output_bytes)} exceeds the "
                                   f"limit of {size_text(MAX_OUTPUT_BYTES)}: {estimate.summary()}")

@@ -1,6 +1,7 @@
 """Figures of a study (matplotlib; every figure is written as PNG and SVG)."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import matplotlib
@@ -23,7 +24,20 @@ __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "sav
 HARMONICS = tuple(range(1, 11))
 
 #: Lengths that identify a geometry, by mechanism type.
-_LENGTHS = ("ground", "crank", "coupler", "rocker", "rod", "offset")
+#: Lengths (m) and six-bar arm angles (rad) that identify a geometry, by mechanism type.
+_LENGTHS = ("ground", "crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle",
+            "coupler_arm", "coupler_arm_angle", "coupler2", "rocker2", "pivot2_x", "pivot2_y",
+            "rod", "offset")
+
+
+def _unit(key: str) -> str:
+    return "rad" if key.endswith("_angle") else "m"
+
+
+def _geometry_text(values: dict[str, float], per_line: int = 5) -> str:
+    """"crank 0.1 m, …" of a geometry; on a line of its own when it is long (six-bars)."""
+    text = ", ".join(f"{k} {v:g} {_unit(k)}" for k, v in values.items())
+    return text if len(values) <= per_line else "\n" + text + "\n"
 
 
 def save(fig, png: str | Path, svg: str | Path | None = None) -> None:
@@ -386,8 +400,8 @@ def campbell_figure(path: str | Path, png: str | Path, svg: str | Path | None = 
     axes[0, 0].set_ylabel("natural frequency [Hz]")
     # outside the data: inside, it covered the first mode's band
     axes[0, -1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    shown = ", ".join(f"{k} {v:g}" for k, v in geometry.items())
-    fig.suptitle(f"Campbell diagram, {family} — coloured: {shown} m; dashed: k·Ω/2π, "
+    shown = _geometry_text(geometry, per_line=4)
+    fig.suptitle(f"Campbell diagram, {family} — coloured: {shown}; dashed: k·Ω/2π, "
                  f"k = {HARMONICS[0]}…{HARMONICS[-1]}", fontsize=9)
     save(fig, png, svg)
 
@@ -482,10 +496,10 @@ def _case_row(fig, grid, row: int, ds: xr.Dataset, kind: str, why: str) -> None:
     ax.set_xlabel("crank angle from start of the cycle [deg]")
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    geometry = ", ".join(f"{k} {float(ds[k]):g}" for k in _LENGTHS
-                         if k in ds.coords and ds[k].ndim == 0)
+    geometry = _geometry_text({k: float(ds[k]) for k in _LENGTHS
+                               if k in ds.coords and ds[k].ndim == 0})
     speed = float(ds.speed)
-    ax.set_title(f"{kind} case {int(ds.case)}: {geometry} m, {ds.material.item()}, "
+    ax.set_title(f"{kind} case {int(ds.case)}: {geometry}, {ds.material.item()}, "
                  f"Ω = {speed:g} rad/s ({speed * 60 / (2 * np.pi):.0f} rpm)\n"
                  f"peak of the curve {drawn_peak:.4g} MPa; {why}", fontsize=8, loc="left")
     ax = fig.add_subplot(grid[row, 1])
@@ -494,7 +508,8 @@ def _case_row(fig, grid, row: int, ds: xr.Dataset, kind: str, why: str) -> None:
 
 def _linkage(ax, ds: xr.Dataset, step: int, links: list[str]) -> None:
     """The linkage at ``step``: rigid (grey) and with the deflection magnified (red), in m."""
-    topo = topology("slider_crank" if "rod" in links else "four_bar")
+    topo = topology(json.loads(ds.attrs["scenes"])[0]["mechanism"] if "scenes" in ds.attrs
+                    else "slider_crank" if "rod" in links else "four_bar")
     pos = ds.joint_position.isel(step=step)
     xy = ds.joint_position.values
     size = max(float(np.ptp(xy[..., 0])), float(np.ptp(xy[..., 1]))) + 1e-9
@@ -510,6 +525,9 @@ def _linkage(ax, ds: xr.Dataset, step: int, links: list[str]) -> None:
         line = a + np.outer(s, chord) + factor * np.outer(w.sel(link=name).values, normal)
         ax.plot(line[:, 0], line[:, 1], color="C3", lw=1.5,
                 label=f"deflection ×{factor:g}" if name == links[0] else None)
+    for point, host in topo.points.items():  # a rigid ternary link's arm to its point
+        a, b = pos.sel(joint=topo.links[host][0]).values, pos.sel(joint=point).values
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.6", lw=3, solid_capstyle="round")
     ax.plot(pos.values[:, 0], pos.values[:, 1], "ko", ms=4)
     for j, (px, py) in zip(pos.joint.values, pos.values):
         ax.annotate(str(j), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)

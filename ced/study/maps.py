@@ -47,7 +47,9 @@ _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",
              "floquet_multiplier_max", "error_estimate", "solve_time", "status", "message")
 
 #: Candidate grid dimensions, in the order of the unstacked arrays.
-GRID_ORDER = ("crank", "coupler", "rocker", "rod", "offset", "speed", "material", "section")
+GRID_ORDER = ("crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle", "coupler_arm",
+              "coupler_arm_angle", "coupler2", "rocker2", "pivot2_x", "pivot2_y", "rod", "offset",
+              "speed", "material", "section")
 
 #: Fill of integer variables at grid points without a case (CF _FillValue).
 _INT_FILL = {STATUS_DTYPE: STATUS_FILL, "int8": -1, "int32": -1, "int64": -1}

@@ -27,7 +27,14 @@ __all__ = ["MAP_HARMONICS", "MAP_LENGTHS", "map_slice", "harmonic_speeds", "reso
 #: Harmonics k of the speeds Ω = 2π f₁ / k at which k·Ω/2π meets the first natural frequency.
 MAP_HARMONICS = tuple(range(1, 6))
 #: Lengths a map's y axis can be, in order of preference on ties.
-MAP_LENGTHS = ("crank", "coupler", "rocker", "rod", "offset")
+MAP_LENGTHS = ("crank", "coupler", "rocker", "rocker_arm", "coupler_arm", "coupler2", "rocker2",
+               "pivot2_x", "pivot2_y", "rod", "offset")
+#: Grid dimensions fixed in a slice besides the lengths: six-bar arm angles, rad (never y).
+_ANGLES = ("rocker_arm_angle", "coupler_arm_angle")
+
+
+def _unit(key: str) -> str:
+    return "rad" if key in _ANGLES else "m"
 _RESONANT = STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"]
 _LOW = "low confidence: other flag or error estimate above tolerance"
 
@@ -71,13 +78,14 @@ def map_slice(grid: xr.Dataset, material: str | None = None, section: int | None
     if "section" in grid.dims:
         fixed_out["section"] = int(grid.section.values[0] if section is None else section)
         has = has.sel(section=fixed_out["section"])
-    lengths = [d for d in MAP_LENGTHS if d in grid.dims]
+    lengths = [d for d in (*MAP_LENGTHS, *_ANGLES) if d in grid.dims]
     given = {k: v for k, v in (fixed or {}).items() if k in lengths}
     for key, value in given.items():
         values = grid[key].values
         if not np.isclose(values, value).any():
-            raise SceneError(f"resonance_map.fixed.{key}", f"{value!r} m is not a grid value "
-                             f"of {key}; allowed: {', '.join(f'{v:g}' for v in values)}")
+            raise SceneError(f"resonance_map.fixed.{key}", f"{value!r} {_unit(key)} is not a "
+                             f"grid value of {key}; allowed: "
+                             f"{', '.join(f'{v:g}' for v in values)}")
         given[key] = float(values[np.isclose(values, value)][0])
 
     def spread(d):
@@ -85,8 +93,9 @@ def map_slice(grid: xr.Dataset, material: str | None = None, section: int | None
         values = grid[d].values[used.values]
         return (int(used.sum()), float(np.ptp(values)) if values.size else 0.0)
 
-    y = y if y in lengths and y not in given else max(
-        [d for d in lengths if d not in given] or lengths, key=spread)
+    candidates = [d for d in lengths if d not in _ANGLES]
+    y = y if y in candidates and y not in given else max(
+        [d for d in candidates if d not in given] or candidates, key=spread)
     rest = has
     for d in lengths:
         if d == y:
@@ -294,7 +303,8 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
             mesh, note = _map_panel(ax, sl, yname, norm, error_tolerance)
         ax.set_xlabel("input speed Ω [rad/s]" + (f"\n{note}" if note else ""), fontsize=8)
         rpm_axis(ax)
-        shown = ", ".join(f"{k} {v:g} m" for k, v in at.items() if k in MAP_LENGTHS)
+        shown = ", ".join(f"{k} {v:g} {_unit(k)}" for k, v in at.items()
+                          if k in (*MAP_LENGTHS, *_ANGLES))
         if sweep and yname in sl.dims:
             used = sl[yname].values[np.isfinite(sl["case"]).any("speed").values]
             shown = ", ".join([f"{yname} {v:g} m" for v in used] + ([shown] if shown else []))

@@ -33,7 +33,9 @@ NOT_CREDIBLE = ("failed", "not_assemblable", "resonant", "parametrically_unstabl
 _NOT_CREDIBLE_BITS = sum(STATUS_FLAGS[name] for name in NOT_CREDIBLE)
 
 #: Geometry columns of the table, in order.
-_GEOMETRY = ("ground", "crank", "coupler", "rocker", "rod", "offset", "slider_mass")
+_GEOMETRY = ("ground", "crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle",
+             "coupler_arm", "coupler_arm_angle", "coupler2", "rocker2", "pivot2_x", "pivot2_y",
+             "rod", "offset", "slider_mass")
 
 
 def credibility(status, error_estimate, error_tolerance: float) -> list[str]:
