@@ -14,12 +14,9 @@ Run ``.venv/bin/python benchmarks/calibrate_cost.py`` (a few minutes).
 from __future__ import annotations
 
 import copy
-import os
 import time
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MKL_NUM_THREADS", "1")
+import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
 
 from ced.problem.scene import load_scene  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402

@@ -13,12 +13,9 @@ timing each candidate as one batch of the 100 cases (one core, best of ``repeat`
 """
 from __future__ import annotations
 
-import os
 import time
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("MKL_NUM_THREADS", "1")
+import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
 
 import numpy as np  # noqa: E402
 

@@ -46,15 +46,22 @@ def _motion(scene, times):
     return batch, batch.rigid_motion(times)
 
 
+def _four_bar_cycle(linkage, samples: int):
+    """The four-bar's description and its input motion over one cycle at 7 rad/s."""
+    g, a, b, c, branch = linkage
+    theta0, amp = drive_of(g, a, b, c)
+    times = np.linspace(0.0, 2 * np.pi / 7.0, samples)[None]
+    motion = kin.input_motion(times, np.array([7.0]), np.array([theta0]), np.array([amp]))
+    mech = {"type": "four_bar", "ground": g, "crank": a, "coupler": b, "rocker": c,
+            "branch": "open" if branch > 0 else "crossed"}
+    return mech, motion
+
+
 @given(four_bars())
 @settings(max_examples=30, deadline=None)
 def test_four_bar_preset_matches_the_closed_form(linkage):
     g, a, b, c, branch = linkage
-    theta0, amp = drive_of(g, a, b, c)
-    times = np.linspace(0.0, 2 * np.pi / 7.0, 241)[None]
-    motion = kin.input_motion(times, np.array([7.0]), np.array([theta0]), np.array([amp]))
-    mech = {"type": "four_bar", "ground": g, "crank": a, "coupler": b, "rocker": c,
-            "branch": "open" if branch > 0 else "crossed"}
+    mech, motion = _four_bar_cycle(linkage, 241)
     ref = kin.four_bar(*(np.array([x]) for x in (g, a, b, c)), motion, np.array([branch]))
     got = dyads.linkage([describe(mech)], motion)
     scale = g + a + b + c
@@ -234,13 +241,9 @@ def test_dyad_sines_of_a_four_bar_reach_the_exact_minimum(linkage):
     from ced.problem.mechanism import dyad_sine_min
 
     g, a, b, c, branch = linkage
-    theta0, amp = drive_of(g, a, b, c)
-    times = np.linspace(0.0, 2 * np.pi / 7.0, 4001)[None]
-    motion = kin.input_motion(times, np.array([7.0]), np.array([theta0]), np.array([amp]))
-    mech = {"type": "four_bar", "ground": g, "crank": a, "coupler": b, "rocker": c,
-            "branch": "open" if branch > 0 else "crossed"}
+    mech, motion = _four_bar_cycle(linkage, 4001)
     sines = dyads.dyad_sines(dyads.linkage([describe(mech)], motion), describe(mech))
-    exact = float(dyad_sine_min(g, a, b, c, theta0, amp))
+    exact = float(dyad_sine_min(g, a, b, c, *drive_of(g, a, b, c)))
     assert sines.shape == (1, 4001, 1)
     # Never below the exact minimum; the sampled minimum is within a step of it.
     assert sines.min() >= exact - 1e-12
