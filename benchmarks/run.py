@@ -7,7 +7,8 @@ and are printed as they come. One process, one BLAS thread: this measures one co
    Ω = 90 … 110 rad/s, two revolutions from the undeformed state. ced's converged value
    (16 elements, 8192 steps per revolution) at every speed, then every candidate setting
    timed as one batch of the 100 cases; the cheapest whose peak coupler strain is within 1 %
-   of the converged value at every speed is ced's setting.
+   of the converged value at every speed is ced's setting. The converged value is checked
+   against twice its steps per revolution at every fifth speed (``ced_reference.refinement``).
 2. **The peer in the same run** (``benchmarks/peer/``): Exudyn, installed from PyPI into its
    own venv by the benchmark, at its cheapest 1 %-setting — found by
    ``benchmarks/peer/compare.py`` against the peer's own converged value, stored in
@@ -64,6 +65,20 @@ def peer_at_chosen(search: bool) -> dict:
                           stored["reference"]["steps_per_revolution"]],
             "max_error": float(error.max()), "p95_error": float(np.percentile(error, 95)),
             "seconds_per_case": float(seconds.mean())}
+
+
+def reference_refinement(reference: np.ndarray, setting: tuple[int, int, int],
+                         stride: int = 5) -> dict:
+    """Is ced's converged value converged? It against twice its steps per revolution at every
+    ``stride``-th speed, and the cheapest setting's error against that finer value there."""
+    elements, modes, steps = sweep.CONVERGED
+    finer = (elements, modes, 2 * steps)
+    speeds = sweep.SPEEDS[::stride]
+    fine, _ = sweep.peak_strain(finer, speeds=speeds)
+    cheap, _ = sweep.peak_strain(setting, speeds=speeds)
+    return {"setting": list(finer), "speeds": len(speeds),
+            "max_difference": float(np.abs(reference[::stride] / fine - 1.0).max()),
+            "cheapest_max_error_against_it": float(np.abs(cheap / fine - 1.0).max())}
 
 
 def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
@@ -129,6 +144,8 @@ def main(argv=None) -> None:
         raise SystemExit("no ced candidate is within 1 % at every speed")
     setting = (best["elements_per_link"], best["modes_per_link"], best["steps_per_revolution"])
     log(f"ced cheapest: {setting}, {1e3 * best['seconds_per_case']:.2f} ms/case")
+    results["ced_reference"]["refinement"] = reference_refinement(reference, setting)
+    log(f"converged value against twice its steps: {results['ced_reference']['refinement']}")
     if not args.no_peer:
         peer = peer_at_chosen(args.peer_search)
         # ced's setting timed again right after the peer: both in the same conditions.
