@@ -69,7 +69,7 @@ def _press(**change):
     ({"points/E/link": "rod"}, "mechanism.dyads[1].joints[0]", "attached to nothing"),
     ({"dyads/1/joints/1": "C"}, "mechanism.dyads[1].joints[1]", "already used"),
     ({"input/pivot": "Z"}, "mechanism.input.pivot", "not a ground pivot"),
-    ({"dyads/0/kind": "RPR"}, "mechanism.dyads[0].kind", "allowed: RRR, RRP"),
+    ({"dyads/0/kind": "PRP"}, "mechanism.dyads[0].kind", "allowed: RRR, RRP, RPR"),
     ({"dyads/0/lengths": [0.45]}, "mechanism.dyads[0].lengths", "2 link lengths"),
     ({"dyads/1/lengths/0": -1.0}, "mechanism.dyads[1].lengths[0]", "> 0"),
     ({"dyads/1/guide": {"angle": 0.3, "slope": 1}}, "mechanism.dyads[1].guide.slope", "unknown"),
