@@ -187,6 +187,7 @@ def test_every_scene_of_the_six_bar_guide_loads():
 
     text = (Path(__file__).resolve().parents[2] / "docs/guide/six_bars.md").read_text()
     blocks = re.findall(r"```yaml\n(.*?)```", text, re.S)
-    assert len(blocks) == 5
+    assert len(blocks) == 7
     kinds = [load_scene(yaml.safe_load(block))["mechanism"]["type"] for block in blocks]
-    assert kinds == ["linkage", "linkage", "watt_ii", "stephenson_iii", "linkage"]
+    assert kinds == ["linkage", "linkage", "watt_ii", "stephenson_iii", "linkage", "linkage",
+                     "linkage"]
