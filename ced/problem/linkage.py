@@ -36,7 +36,7 @@ from typing import Any
 
 from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
 
-__all__ = ["DYAD_KINDS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
+__all__ = ["DYAD_KINDS", "DYAD_KEYS", "DYAD_MEANINGS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
            "check_description", "linkage_topology", "ternary_bars", "four_bar_loops",
            "assembly_error", "ASSEMBLY_SAMPLES"]
 
@@ -46,6 +46,32 @@ DYAD_KEYS = {
     "RRR": ("links", "joints", "lengths", "branch"),
     "RRP": ("links", "joints", "lengths", "branch", "guide", "slider_mass"),
     "RPR": ("links", "joints", "lengths", "offset", "sleeve_mass", "sleeve_inertia"),
+}
+#: One line of meaning per key of a dyad (``<kind>.<key>``), for the scene reference.
+DYAD_MEANINGS = {
+    "RRR.links": "[l1, l2]: l1 runs from P to the new joint M, l2 from Q to M",
+    "RRR.joints": "[P, M, Q]: P and Q known points, M the new joint of l1 and l2",
+    "RRR.lengths": "[|PM|, |QM|] (m)",
+    "RRR.branch": "open (default) puts M on the left of P→Q at the start; kept over the cycle",
+    "RRP.links": "[rod, slider]: the rod runs from P to M; the slider block (a body, not a "
+                 "link) rides on M",
+    "RRP.joints": "[P, M]: P a known point, M the new joint on the fixed guide",
+    "RRP.lengths": "[|PM|] (m)",
+    "RRP.branch": "open (default) puts M ahead of P along the guide",
+    "RRP.guide": "{point: [x, y] (m, default [0, 0]), angle (rad, default 0)}: the fixed "
+                 "straight guide",
+    "RRP.slider_mass": "mass of the slider block at M (kg, default 0)",
+    "RPR.links": "[guide, sleeve]: the guide bar (a link, always rigid) turns about P; the "
+                 "sleeve (a block, not a link) turns about Q and slides along the bar",
+    "RPR.joints": "[P, T, Q]: P and Q known points, T the bar's far end, a new joint later "
+                  "dyads may attach to (else free)",
+    "RPR.lengths": "[|PT|] (m): the sleeve must stay on the bar, 0 < s ≤ |PT| with "
+                   "s = √(|PQ|² − offset²) its distance from P",
+    "RPR.offset": "signed distance of Q from the bar's line, to the left of P→T positive "
+                  "(m, default 0); its sign chooses the side: an RPR dyad has no branch",
+    "RPR.sleeve_mass": "mass of the sleeve, on Q (kg, default 0)",
+    "RPR.sleeve_inertia": "moment of inertia of the sleeve about Q (kg m², default 0); it "
+                          "turns with the bar",
 }
 _JOINTS = {"RRR": 3, "RRP": 2, "RPR": 3}
 _LENGTHS = {"RRR": 2, "RRP": 1, "RPR": 1}
