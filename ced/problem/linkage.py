@@ -38,7 +38,7 @@ from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
 
 __all__ = ["DYAD_KINDS", "DYAD_KEYS", "DYAD_MEANINGS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
            "check_description", "linkage_topology", "ternary_bars", "four_bar_loops",
-           "assembly_error", "ASSEMBLY_SAMPLES"]
+           "assembly_error", "transmission", "ASSEMBLY_SAMPLES"]
 
 DYAD_KINDS = ("RRR", "RRP", "RPR")
 #: Keys of each dyad kind besides ``kind`` (the first three required).
@@ -492,11 +492,14 @@ def four_bar_loops(mech: Mapping) -> list[tuple[float, float, float, float]]:
 ASSEMBLY_SAMPLES = 3601
 
 
-def _rotate(at, angle):
+def _in_frame(origin, e, at):
+    """Points ``at`` (x, y) of a frame with origin (n, 2) and unit x axis e (n, 2): (n, 2)."""
     import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
 
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([at[0] * c - at[1] * s, at[0] * s + at[1] * c], axis=-1)
+    out = np.empty(e.shape)
+    out[..., 0] = origin[..., 0] + at[0] * e[..., 0] - at[1] * e[..., 1]
+    out[..., 1] = origin[..., 1] + at[0] * e[..., 1] + at[1] * e[..., 0]
+    return out
 
 
 def assembly_error(description: Mapping, angles) -> str | None:
@@ -521,22 +524,76 @@ def assembly_error(description: Mapping, angles) -> str | None:
     str or None
         A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
     """
+    for i, _, error, _ in _placed(description, angles):
+        if error:
+            return f"dyads[{i}]: {error}"
+    return None
+
+
+def transmission(description: Mapping, angles):
+    """The transmission measure of every dyad at the given input angles, (n, dyad).
+
+    RRR: |sin μ|, μ the angle between its links (cos μ = (l1² + l2² − |PQ|²)/(2 l1 l2), the
+    same on either branch); RRP: |cos(θ_rod − φ_guide)| = √(1 − (h/l1)²), h the distance of P
+    from the guide; RPR: s/L, the sleeve's distance from the bar's pivot over the bar's length
+    (:func:`ced.rigid.dyads.dyad_sines` gives the same from a rigid motion). From positions
+    only, the dyads placed as the assembly check places them, so that a batch's
+    ``near_singular`` costs no velocities or accelerations.
+
+    Parameters
+    ----------
+    description : mapping
+        A dyad description (:func:`describe`) that assembles at every angle.
+    angles : ndarray, (n,)
+        Input angles, rad.
+
+    Returns
+    -------
+    ndarray, (n, dyad)
+        Dimensionless, in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        If a dyad cannot be assembled at one of the angles (the assembly check's message).
+    """
+    import numpy as np
+
+    out = []
+    for i, _, error, measure in _placed(description, angles):
+        if error:
+            raise ValueError(f"dyads[{i}]: {error}")
+        out.append(measure)
+    return np.stack(out, axis=-1)
+
+
+def _placed(description: Mapping, angles):
+    """Place the dyads in order at the input ``angles`` (n,): yield, per dyad, (index, dyad,
+    why it cannot be assembled or None, its transmission measure (n,) or None) and stop at
+    the first that cannot. Each RRR takes its ``branch`` at every angle (a change point is
+    not tracked through: its sine vanishes there anyway)."""
     import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
 
     inp = description["input"]
     known = {name: np.broadcast_to(np.asarray(xy, float), angles.shape + (2,))
              for name, xy in description["ground"].items()}
-    frame = {inp["link"]: (known[inp["pivot"]], angles)}
+    # Each placed link's frame: its first joint and the unit vector along it (n, 2); no
+    # angles, so no trigonometry past the input's.
+    frame = {inp["link"]: (known[inp["pivot"]],
+                           np.stack([np.cos(angles), np.sin(angles)], axis=-1))}
 
     ends = {inp["link"]: inp["tip"]}
     ends.update({d["links"][0]: d["joints"][1] for d in description["dyads"]})
 
     def place(link, length):
-        origin, angle = frame[link]
-        known.setdefault(ends[link], origin + _rotate((length, 0.0), angle))
+        origin, e = frame[link]
+        known.setdefault(ends[link], _in_frame(origin, e, (length, 0.0)))
         for name, point in description.get("points", {}).items():
             if point["link"] == link:
-                known[name] = origin + _rotate(point["at"], angle)
+                known[name] = _in_frame(origin, e, point["at"])
+
+    def left(v):  # v turned a quarter turn counter-clockwise
+        return np.stack([-v[..., 1], v[..., 0]], axis=-1)
 
     ends.update({d["links"][1]: d["joints"][1] for d in description["dyads"]})
     place(inp["link"], inp["length"])
@@ -553,41 +610,55 @@ def assembly_error(description: Mapping, angles) -> str | None:
             bad = (dist > (l1 + l2) * (1 + rtol)) | (dist < abs(l1 - l2) * (1 - rtol))
             if bad.any():
                 k = int(np.argmax(bad))
-                return (f"dyads[{i}]: the RRR dyad {join(dyad['links'])} "
-                        f"cannot be assembled at input angle {angles[k]:.4g} rad: "
-                        f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m is outside "
-                        f"[|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m")
-            cos_beta = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2 * l1 * dist), -1, 1)
-            th1 = np.arctan2(d[..., 1], d[..., 0]) + sign * np.arccos(cos_beta)
-            M = P + _rotate((l1, 0.0), th1)
-            th2 = np.arctan2(M[..., 1] - Q[..., 1], M[..., 0] - Q[..., 0])
-            frame[dyad["links"][0]], frame[dyad["links"][1]] = (P, th1), (Q, th2)
+                yield i, dyad, (f"the RRR dyad {join(dyad['links'])} "
+                                f"cannot be assembled at input angle {angles[k]:.4g} rad: "
+                                f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m "
+                                f"is outside [|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m"), None
+                return
+            # M on the circles about P (l1) and Q (l2): a along P→Q, ±h across it (left for
+            # the open branch).
+            a = np.clip((l1 * l1 - l2 * l2 + dist * dist) / (2 * dist), -l1, l1)
+            h = sign * np.sqrt(l1 * l1 - a * a)
+            u = d / dist[..., None]
+            M = P + a[..., None] * u + h[..., None] * left(u)
+            frame[dyad["links"][0]] = (P, (M - P) / l1)
+            frame[dyad["links"][1]] = (Q, (M - Q) / l2)
             place(dyad["links"][0], l1)
             place(dyad["links"][1], l2)
+            cos_mu = np.clip((l1 * l1 + l2 * l2 - dist * dist) / (2 * l1 * l2), -1, 1)
+            yield i, dyad, None, np.sqrt(1.0 - cos_mu * cos_mu)
         elif dyad["kind"] == "RRP":
             phi = dyad["guide"]["angle"]
+            along = np.array([math.cos(phi), math.sin(phi)])
             normal = np.array([-math.sin(phi), math.cos(phi)])
             h = (P - np.asarray(dyad["guide"]["point"])) @ normal
             bad = np.abs(h) >= l1 * (1 - rtol)
             if bad.any():
                 k = int(np.argmax(bad))
-                return (f"dyads[{i}]: the RRP dyad {dyad['links'][0]} cannot reach its "
-                        f"guide at input angle {angles[k]:.4g} rad: {dyad['joints'][0]} is "
-                        f"{abs(h[k]):.4g} m from it, the link {l1:g} m long")
-            th1 = phi + np.arctan2(-h / l1, sign * np.sqrt(1 - (h / l1) ** 2))
-            frame[dyad["links"][0]] = (P, th1)
+                yield i, dyad, (f"the RRP dyad {dyad['links'][0]} cannot reach its "
+                                f"guide at input angle {angles[k]:.4g} rad: "
+                                f"{dyad['joints'][0]} is {abs(h[k]):.4g} m from it, the link "
+                                f"{l1:g} m long"), None
+                return
+            # n·(M − P) = −h with M − P = l1 e1: e1 = ±√(1 − (h/l1)²) along − (h/l1) normal.
+            cosine = np.sqrt(1 - (h / l1) ** 2)
+            e1 = (sign * cosine)[..., None] * along - (h / l1)[..., None] * normal
+            frame[dyad["links"][0]] = (P, e1)
             place(dyad["links"][0], l1)
+            yield i, dyad, None, cosine
         else:
-            error, th1 = _rpr_assembly(dyad, P, known[dyad["joints"][2]], angles, rtol)
+            error, e1, slide = _rpr_assembly(dyad, P, known[dyad["joints"][2]], angles, rtol)
             if error:
-                return f"dyads[{i}]: {error}"
-            frame[dyad["links"][0]] = (P, th1)
+                yield i, dyad, error, None
+                return
+            frame[dyad["links"][0]] = (P, e1)
             place(dyad["links"][0], l1)
-    return None
+            yield i, dyad, None, np.minimum(slide / l1, 1.0)
 
 
 def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):
-    """(message or None, guide angle (n,) rad) of an RPR dyad whose pivots are at P and Q."""
+    """(message or None, the bar's unit vector (n, 2), slide (n,) m) of an RPR dyad whose
+    pivots are at P and Q."""
     import numpy as np
 
     (guide, sleeve), (p, _, q) = dyad["links"], dyad["joints"]
@@ -601,11 +672,15 @@ def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):
         k = int(np.argmax(bad))
         return (f"the RPR dyad {guide}, {sleeve} cannot be assembled at input angle "
                 f"{angles[k]:.4g} rad: |{p}{q}| = {dist[k]:.4g} m is not more than |offset| = "
-                f"{abs(offset):g} m, so the sleeve at {q} would sit on the bar's pivot {p}"), None
+                f"{abs(offset):g} m, so the sleeve at {q} would sit on the bar's pivot {p}"
+                ), None, None
     bad = slide > length * (1 + rtol)
     if bad.any():
         k = int(np.argmax(bad))
         return (f"the sleeve {sleeve} runs off the end of the guide bar {guide} at input angle "
                 f"{angles[k]:.4g} rad: it is {slide[k]:.4g} m along the bar from {p}, the bar "
-                f"{length:g} m long (lengths[0])"), None
-    return None, np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(offset, slide)
+                f"{length:g} m long (lengths[0])"), None, None
+    # e = (s (Q − P) − offset (Q − P)⊥)/|PQ|², the bar's unit vector.
+    across = np.stack([-d[..., 1], d[..., 0]], axis=-1)
+    e = (slide[..., None] * d - offset * across) / (dist * dist)[..., None]
+    return None, e, slide

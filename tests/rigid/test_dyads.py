@@ -383,3 +383,19 @@ def test_rpr_closure_derivatives_and_power_balance(d, crank, offset, extra, phas
     power = forces.input_torque * r.link_angular_velocity[..., 0]
     rate = kinetic_energy_rate(r, batch.bodies, batch.gravity)
     assert np.abs(power - rate).max() < 1e-9 * (np.abs(rate).max() + np.abs(power).max())
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+def test_transmission_from_positions_is_the_rigid_motions(name):
+    """The near_singular check's measures (positions only, the assembly check's placement,
+    ced.problem.linkage.transmission) equal dyad_sines of the tracked rigid motion."""
+    from ced.problem.linkage import transmission
+
+    scene = _scene(MECHANISMS[name])
+    batch = make_batch([scene])
+    motion = batch.rigid_motion(np.linspace(0.0, 2 * np.pi / batch.speed[0], 721)[None])
+    description = describe(scene["mechanism"])
+    expected = dyads.dyad_sines(motion, description)[0]
+    got = transmission(description, motion.link_angle[0, :, 0])
+    assert got.shape == expected.shape
+    assert np.abs(got - expected).max() < 1e-12
