@@ -181,16 +181,25 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
                (("material", "rho"), ("section", "area"), ("section", "second_moment"))}
         n = batch.size
         mass, trans, gyro = (np.zeros((n, 3, 3)) for _ in range(3))
-        for c in range(n):
-            for x, y in ternary_bars(descriptions[c], name, batch.link_lengths[c, i]):
-                bar = elements.rigid_body.link_matrices(
-                    np.hypot(x, y), rho=par["rho"][c], area=par["area"][c],
-                    second_moment=par["second_moment"][c])
-                cb, sb = x / np.hypot(x, y), y / np.hypot(x, y)
-                T = np.array([[cb, sb, 0.0], [-sb, cb, 0.0], [0.0, 0.0, 1.0]])
-                mass[c] += T.T @ bar.mass @ T
-                trans[c] += T.T @ bar.translational_mass @ T
-                gyro[c] += T.T @ bar.gyroscopic @ T
+        bars = [ternary_bars(descriptions[c], name, batch.link_lengths[c, i]) for c in range(n)]
+        # Bar k of every case at once (a case whose point lies on the bar has one bar fewer:
+        # those go case by case).
+        same = all(len(b) == len(bars[0]) for b in bars)
+        groups = ([(np.arange(n), [b[k] for b in bars]) for k in range(len(bars[0]))] if same
+                  else [([c], [xy]) for c in range(n) for xy in bars[c]])
+        for cases, ends in groups:
+            x, y = np.asarray(ends, float).T
+            length = np.hypot(x, y)
+            bar = elements.rigid_body.link_matrices(
+                length, rho=par["rho"][cases], area=par["area"][cases],
+                second_moment=par["second_moment"][cases])
+            T = np.zeros((len(length), 3, 3))
+            T[:, 0, 0] = T[:, 1, 1] = x / length
+            T[:, 0, 1], T[:, 1, 0], T[:, 2, 2] = y / length, -y / length, 1.0
+            Tt = np.swapaxes(T, -1, -2)
+            mass[cases] += Tt @ bar.mass @ T
+            trans[cases] += Tt @ bar.translational_mass @ T
+            gyro[cases] += Tt @ bar.gyroscopic @ T
         geometric = np.zeros((n, 3, 3, 3))
         geometric[:, 0, 2, 2] = 1.0  # K_φφ = N0 · 1: the coefficient carries Σ F·r
         load_constant = np.broadcast_to(np.eye(3)[:, :2], (n, 3, 2)).copy()
