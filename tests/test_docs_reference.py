@@ -44,6 +44,17 @@ def test_every_scene_key_has_a_meaning():
     assert all(len(row) == 5 and row[4] for row in rows)
 
 
+def test_every_dyad_key_has_a_meaning_and_the_rpr_example_loads():
+    from ced.problem.linkage import DYAD_KEYS, DYAD_MEANINGS
+    from ced.problem.reference import RPR_EXAMPLE
+
+    assert set(DYAD_MEANINGS) == {f"{k}.{key}" for k, keys in DYAD_KEYS.items() for key in keys}
+    scene = load_scene(yaml.safe_load(RPR_EXAMPLE))
+    assert [d["kind"] for d in scene["mechanism"]["dyads"]] == ["RPR", "RRP"]
+    assert scene["links"]["lever"]["flexible"] is False and scene["links"]["rod"]["flexible"]
+    assert "```yaml\n" + RPR_EXAMPLE in (DOCS / "scene.md").read_text(encoding="utf-8")
+
+
 def test_no_meaning_without_a_key():
     """A meaning left behind by a removed key fails too."""
     known = {"name", "mechanism.type", "effects", "gravity", "discretization", "modal",

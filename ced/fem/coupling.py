@@ -18,8 +18,14 @@ from a rigid first loop) solves its constraint for a remaining free coordinate o
 joints instead: the coefficient is then the sine of a transmission angle, which vanishes only
 at a toggle of that rigid loop. A joint at a point of a (rigid, ternary) link moves with that
 link's small rigid motion: U_E = U_f + φ (x_E e⊥ − y_E e), φ = e⊥ᵀ(U_s − U_f)/L, (x_E, y_E)
-the point in the link frame; it has no coordinates of its own. Everything time-dependent is a
-product of rotations, so P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
+the point in the link frame; it has no coordinates of its own. The rigid guide bar P→T of an
+RPR dyad turns with its sleeve, which turns about Q at the distance s(t) from P along the bar:
+linearizing the closure Q − P = s e + offset e⊥, its small rotation is φ = e⊥ᵀ(U_Q − U_P)/s;
+with φ = e⊥ᵀ(U_T − U_P)/L this is the *prismatic* constraint
+s e⊥ᵀ(U_T − U_P) − L e⊥ᵀ(U_Q − U_P) = 0, which owns T's transverse coordinate (coefficient
+s, vanishing only where the sleeve reaches the bar's pivot) as the bar's inextensibility owns
+its axial one. Everything time-dependent is a product of rotations and of the slide s(t), so
+P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
 """
 from __future__ import annotations
 
@@ -48,7 +54,9 @@ class Layout:
     host : joint -> hosting link name, or None for the global frame
     coordinate_kind : (joint, 0|1) -> "free" | "zero" | "own" | "point" (a joint at a point
         of a rigid link: its translation follows from the link's, no coordinate of its own)
-    constraints : list of (rigid link, "axial" | "clamp", owned (joint, component) )
+    constraints : list of (rigid link, "axial" | "prismatic", owned (joint, component)):
+        a rigid link's inextensibility, or the constraint of an RPR guide bar's rotation to
+        its sleeve's (see the module docstring)
     """
 
     topology: Topology
@@ -184,9 +192,21 @@ def build_layout(
         host[j] = None
         kind[(j, 0)] = kind[(j, 1)] = "point"
 
-    rigid = [n for n in links if not flexible[n]]
-    rigid.sort(key=lambda n: 0 if links[n][0] in topology.ground_joints else 1)
     constraints = []
+    guides = set()
+    for sleeve, (_, bar) in topology.sleeves.items():
+        if flexible[bar]:
+            raise ValueError(f"links.{bar}.flexible: the guide bar of the sleeve {sleeve} is "
+                             "rigid")
+        # The bar's far end: its axial coordinate solves the bar's inextensibility, its
+        # transverse one the bar's turning with the sleeve.
+        tip = links[bar][1]
+        host[tip] = bar
+        kind[(tip, 0)] = kind[(tip, 1)] = "own"
+        constraints += [(bar, "axial", (tip, 0)), (bar, "prismatic", (tip, 1))]
+        guides.add(bar)
+    rigid = [n for n in links if not flexible[n] and n not in guides]
+    rigid.sort(key=lambda n: 0 if links[n][0] in topology.ground_joints else 1)
     for name in rigid:
         first, second = links[name]
         if name == topology.input_link:
@@ -271,6 +291,7 @@ def projection(
     link_acceleration: np.ndarray,
     points: dict[str, np.ndarray] | None = None,
     guide_angle: dict[str, np.ndarray] | None = None,
+    slide: dict[str, tuple] | None = None,
 ) -> np.ndarray:
     """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
 
@@ -287,6 +308,9 @@ def projection(
         every joint of ``layout.topology.points``
     guide_angle : slider joint -> direction of its fixed guide (case,) rad; parallel to x if
         absent
+    slide : RPR sleeve -> its distance s from the guide bar's pivot along the bar, with its
+        rate and acceleration (each (case, step): m, m/s, m/s²); every sleeve of
+        ``layout.topology.sleeves``
     """
     topo = layout.topology
     shape = link_angle.shape[:2]
@@ -315,11 +339,27 @@ def projection(
         E[0, ..., col[key], i] = 1.0
     if layout.constraints:
         rows = np.zeros((3,) + shape + (len(layout.constraints), nx))
-        for r, (name, _, _) in enumerate(layout.constraints):
+        joint_index = {j: k for k, j in enumerate(topo.joints)}
+        sleeve_of = {bar: (sleeve, pivot) for sleeve, (pivot, bar) in topo.sleeves.items()}
+
+        def across(direction, joint, base):  # direction-row jet · (U_joint − U_base)
+            k, b = joint_index[joint], joint_index[base]
+            return jets.matmul(direction, H[..., 2 * k : 2 * k + 2, :]
+                               - H[..., 2 * b : 2 * b + 2, :])
+
+        for r, (name, what, _) in enumerate(layout.constraints):
             first, second = topo.links[name]
+            if what == "prismatic":  # s e⊥ᵀ(U_T − U_P) − L e⊥ᵀ(U_Q − U_P) = 0
+                sleeve, pivot = sleeve_of[name]
+                n_row = jets.transpose(rot[name][..., :, 1:2])
+                s_jet = np.stack(slide[sleeve])[..., None, None]
+                L = lengths[:, names.index(name)][:, None, None, None]
+                rows[..., r : r + 1, :] = (jets.matmul(s_jet, across(n_row, second, first))
+                                           - L * across(n_row, pivot, first))
+                continue
             e_row = jets.transpose(rot[name][..., :, 0:1])  # e_iᵀ as a (1, 2) jet
             for joint, sign in ((second, 1.0), (first, -1.0)):
-                k = list(topo.joints).index(joint)
+                k = joint_index[joint]
                 rows[..., r : r + 1, :] += sign * jets.matmul(e_row, H[..., 2 * k : 2 * k + 2, :])
         own = [col[c[2]] for c in layout.constraints]
         free_cols = [col[key] for key in free]

@@ -10,6 +10,12 @@ every closed-form kinematics, docs/theory.md "Linkages built from dyads"):
 * ``RRP`` — link ``l1`` from the known point P to the new joint M, and a slider block at M on a
   fixed straight guide through ``guide.point`` at ``guide.angle``; ``branch: open`` puts M
   ahead of P along the guide direction.
+* ``RPR`` — links ``[guide, sleeve]``, joints ``[P, T, Q]``: the guide bar turns about the
+  known point P, its far end T (``lengths: [L]``) a new joint; the sleeve, a block (not a
+  link: ``sleeve_mass``, ``sleeve_inertia``), turns about the known point Q and slides along
+  the bar, Q at the signed distance ``offset`` to the left of the bar's line (the inverted
+  slider-crank, Whitworth's quick return, the oscillating cylinder). One assembly: the bar
+  runs from P through the sleeve.
 
 Known points are the ground pivots, the input link's tip and the *points* of links already
 placed (a point of a link in its frame: x from its first joint towards its second, y to the
@@ -30,11 +36,45 @@ from typing import Any
 
 from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
 
-__all__ = ["DYAD_KINDS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
+__all__ = ["DYAD_KINDS", "DYAD_KEYS", "DYAD_MEANINGS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
            "check_description", "linkage_topology", "ternary_bars", "four_bar_loops",
-           "assembly_error", "ASSEMBLY_SAMPLES"]
+           "assembly_error", "transmission", "ASSEMBLY_SAMPLES"]
 
-DYAD_KINDS = ("RRR", "RRP")
+DYAD_KINDS = ("RRR", "RRP", "RPR")
+#: Keys of each dyad kind besides ``kind`` (the first three required).
+DYAD_KEYS = {
+    "RRR": ("links", "joints", "lengths", "branch"),
+    "RRP": ("links", "joints", "lengths", "branch", "guide", "slider_mass"),
+    "RPR": ("links", "joints", "lengths", "offset", "sleeve_mass", "sleeve_inertia"),
+}
+#: One line of meaning per key of a dyad (``<kind>.<key>``), for the scene reference.
+DYAD_MEANINGS = {
+    "RRR.links": "[l1, l2]: l1 runs from P to the new joint M, l2 from Q to M",
+    "RRR.joints": "[P, M, Q]: P and Q known points, M the new joint of l1 and l2",
+    "RRR.lengths": "[|PM|, |QM|] (m)",
+    "RRR.branch": "open (default) puts M on the left of P→Q at the start; kept over the cycle",
+    "RRP.links": "[rod, slider]: the rod runs from P to M; the slider block (a body, not a "
+                 "link) rides on M",
+    "RRP.joints": "[P, M]: P a known point, M the new joint on the fixed guide",
+    "RRP.lengths": "[|PM|] (m)",
+    "RRP.branch": "open (default) puts M ahead of P along the guide",
+    "RRP.guide": "{point: [x, y] (m, default [0, 0]), angle (rad, default 0)}: the fixed "
+                 "straight guide",
+    "RRP.slider_mass": "mass of the slider block at M (kg, default 0)",
+    "RPR.links": "[guide, sleeve]: the guide bar (a link, always rigid) turns about P; the "
+                 "sleeve (a block, not a link) turns about Q and slides along the bar",
+    "RPR.joints": "[P, T, Q]: P and Q known points, T the bar's far end, a new joint later "
+                  "dyads may attach to (else free)",
+    "RPR.lengths": "[|PT|] (m): the sleeve must stay on the bar, 0 < s ≤ |PT| with "
+                   "s = √(|PQ|² − offset²) its distance from P",
+    "RPR.offset": "signed distance of Q from the bar's line, to the left of P→T positive "
+                  "(m, default 0); its sign chooses the side: an RPR dyad has no branch",
+    "RPR.sleeve_mass": "mass of the sleeve, on Q (kg, default 0)",
+    "RPR.sleeve_inertia": "moment of inertia of the sleeve about Q (kg m², default 0); it "
+                          "turns with the bar",
+}
+_JOINTS = {"RRR": 3, "RRP": 2, "RPR": 3}
+_LENGTHS = {"RRR": 2, "RRP": 1, "RPR": 1}
 #: Mechanism types that expand into a dyad description (single_link is not a linkage).
 PRESET_TYPES = ("four_bar", "slider_crank", "watt_ii", "stephenson_iii")
 
@@ -43,6 +83,8 @@ _COORD = Real(unit="m")
 _ANGLE = Real(unit="rad")
 _NAME = Text(nonempty=True)
 _BRANCH = Choice(("open", "crossed"))
+_MASS = Real(low=0.0, unit="kg")
+_INERTIA = Real(low=0.0, unit="kg m^2")
 _RESERVED = ("ground", "tip")
 
 
@@ -109,7 +151,7 @@ class _Points:
 class _Dyads:
     def describe(self) -> str:
         return (f"a non-empty list of dyads {{kind ({join(DYAD_KINDS)}), links, joints, "
-                "lengths, branch[, guide, slider_mass]}")
+                "lengths[, branch, guide, slider_mass, offset, sleeve_mass, sleeve_inertia]}")
 
     def __call__(self, value: Any, path: str) -> list:
         if not isinstance(value, (list, tuple)) or not value:
@@ -122,30 +164,40 @@ class _Dyads:
             raise SceneError(path, f"must be a mapping with kind ({join(DYAD_KINDS)}); got "
                                    f"{shown(value)}")
         kind = Choice(DYAD_KINDS)(value["kind"], f"{path}.kind")
-        rrr = kind == "RRR"
-        keys = ("kind", "links", "joints", "lengths", "branch") + (
-            () if rrr else ("guide", "slider_mass"))
+        keys = ("kind",) + DYAD_KEYS[kind]
+        if kind == "RPR" and "branch" in value:
+            raise SceneError(f"{path}.branch", (
+                "an RPR dyad has one assembly (its guide bar runs from P through the sleeve); "
+                "give the side of the bar's line Q lies on by the sign of offset"))
         check_keys(value, path, keys)
-        for key in ("links", "joints", "lengths") + (() if rrr else ("guide",)):
+        required = ("links", "joints", "lengths") + (("guide",) if kind == "RRP" else ())
+        for key in required:
             if key not in value:
                 raise SceneError(f"{path}.{key}", f"missing; a {kind} dyad needs "
-                                                  f"{join(k for k in keys if k != 'kind')}")
+                                                  f"{join(required)} (optional: "
+                                                  f"{join(k for k in keys[1:] if k not in required)})")
         out = {"kind": kind,
                "links": _names(value["links"], f"{path}.links", 2, "body"),
-               "joints": _names(value["joints"], f"{path}.joints", 3 if rrr else 2, "joint")}
-        n = 2 if rrr else 1
+               "joints": _names(value["joints"], f"{path}.joints", _JOINTS[kind], "joint")}
+        n = _LENGTHS[kind]
         lengths = value["lengths"]
         if not isinstance(lengths, (list, tuple)) or len(lengths) != n:
-            raise SceneError(f"{path}.lengths", f"must be a list of {n} link lengths (m); got "
+            raise SceneError(f"{path}.lengths", f"must be a list of {n} link length"
+                                                f"{'s' if n > 1 else ''} (m); got "
                                                 f"{shown(lengths)}")
         out["lengths"] = [_LENGTH(v, f"{path}.lengths[{i}]") for i, v in enumerate(lengths)]
+        if kind == "RPR":
+            out["offset"] = _COORD(value.get("offset", 0.0), f"{path}.offset")
+            out["sleeve_mass"] = _MASS(value.get("sleeve_mass", 0.0), f"{path}.sleeve_mass")
+            out["sleeve_inertia"] = _INERTIA(value.get("sleeve_inertia", 0.0),
+                                             f"{path}.sleeve_inertia")
+            return out
         out["branch"] = _BRANCH(value.get("branch", "open"), f"{path}.branch")
-        if not rrr:
+        if kind == "RRP":
             guide = check_keys(value["guide"], f"{path}.guide", ("point", "angle"))
             out["guide"] = {"point": _pair(guide.get("point", [0.0, 0.0]), f"{path}.guide.point"),
                             "angle": _ANGLE(guide.get("angle", 0.0), f"{path}.guide.angle")}
-            out["slider_mass"] = Real(low=0.0, unit="kg")(value.get("slider_mass", 0.0),
-                                                          f"{path}.slider_mass")
+            out["slider_mass"] = _MASS(value.get("slider_mass", 0.0), f"{path}.slider_mass")
         return out
 
 
@@ -157,8 +209,9 @@ def check_description(mech: dict, path: str = "mechanism") -> None:
     """Refuse a dyad description whose names do not make one linkage.
 
     Every dyad attaches to known points only (ground pivots, the input's tip, points of links
-    placed before it), each known point takes one joint, every point is used, and every name
-    (link, slider, joint) is used once.
+    placed before it, the far end of an RPR guide bar), each known point takes one joint,
+    every point is used (the far end of an RPR guide bar may stay free), and every name
+    (link, slider, sleeve, joint) is used once.
 
     Parameters
     ----------
@@ -205,10 +258,11 @@ def check_description(mech: dict, path: str = "mechanism") -> None:
                 del points[name]
 
     release_points(inp["link"])
+    ends: set[str] = set()  # far ends of RPR guide bars: known points that may stay free
     for i, dyad in enumerate(mech["dyads"]):
         sub = f"{path}.dyads[{i}]"
-        rrr = dyad["kind"] == "RRR"
-        attached = [0, 2] if rrr else [0]
+        kind = dyad["kind"]
+        attached = [0] if kind == "RRP" else [0, 2]
         for k in attached:
             name = dyad["joints"][k]
             if name not in free:
@@ -223,24 +277,33 @@ def check_description(mech: dict, path: str = "mechanism") -> None:
         if middle in joints or middle in free or middle in points:
             raise SceneError(f"{sub}.joints[1]", f"joint name {middle!r} is already used; the "
                                                  "middle joint of a dyad is a new joint")
-        joints[middle] = f"{sub}.joints[1]"
         for k, link in enumerate(dyad["links"]):
             new_body(link, f"{sub}.links[{k}]")
-        if rrr:
+        if kind == "RPR":
+            # The guide's far end is a new known point; a later dyad may attach there.
+            free[middle] = f"{sub}.joints[1]"
+            ends.add(middle)
+        else:
+            joints[middle] = f"{sub}.joints[1]"
+        if kind == "RRR":
             release_points(dyad["links"][0])
             release_points(dyad["links"][1])
-        else:
+        elif kind == "RRP":
             release_points(dyad["links"][0])
-            for name, point in points.items():
-                if point["link"] == dyad["links"][1]:
-                    raise SceneError(f"{path}.points.{name}", "a slider block carries no "
-                                                              "points; put it on a link")
+        for name, point in points.items():
+            if point["link"] in dyad["links"] and kind != "RRR":
+                why = ("a slider block carries no points; put it on a link" if kind == "RRP"
+                       else "the guide bar and the sleeve of an RPR dyad carry no points; "
+                            "attach a later dyad at the bar's end "
+                            f"{dyad['joints'][1]!r} instead")
+                raise SceneError(f"{path}.points.{name}", why)
     for name, point in points.items():
         if point["link"] not in bodies:
             raise SceneError(f"{path}.points.{name}.link", f"unknown link {point['link']!r}; "
                                                            f"allowed: {join(bodies)}")
-    if free:
-        name = sorted(free)[0]
+    left = sorted(set(free) - ends)
+    if left:
+        name = left[0]
         raise SceneError(free[name], f"{name!r} is attached to nothing: no dyad uses it; "
                                      "remove it or attach a dyad there")
 
@@ -320,9 +383,11 @@ PRESET_FIELDS = {
 def linkage_topology(description: Mapping):
     """The :class:`ced.problem.mechanism.Topology` of a dyad description.
 
-    Links are listed input first, then each dyad's links in order (a slider block is a body,
-    not a link); joints in the order they are met (input pivot, input tip, then each dyad's
-    joints). A joint connects the body that owns the known point (first) to the dyad's link.
+    Links are listed input first, then each dyad's links in order (a slider block or an RPR
+    sleeve is a body, not a link); joints in the order they are met (input pivot, input tip,
+    then each dyad's joints). A joint connects the body that owns the known point (first) to
+    the dyad's link. The far end T of an RPR guide bar no later dyad uses is a free tip
+    (``(guide, "tip")``).
 
     Parameters
     ----------
@@ -332,8 +397,9 @@ def linkage_topology(description: Mapping):
     Returns
     -------
     Topology
-        With ``points`` (joint at a point of a link -> that link) and ``sliders`` (slider
-        block -> its joint, on a fixed guide).
+        With ``points`` (joint at a point of a link -> that link), ``sliders`` (slider
+        block -> its joint, on a fixed guide) and ``sleeves`` (RPR sleeve -> (its pivot
+        joint, the guide bar it slides on)).
     """
     from .mechanism import Topology  # mechanism imports numpy; keep this module light
 
@@ -342,7 +408,7 @@ def linkage_topology(description: Mapping):
     owner = {inp["tip"]: inp["link"], **{g: "ground" for g in description["ground"]}}
     owner.update({name: p["link"] for name, p in description.get("points", {}).items()})
     joints = {inp["pivot"]: ("ground", inp["link"])}
-    sliders = {}
+    sliders, sleeves = {}, {}
     for dyad in description["dyads"]:
         l1, l2 = dyad["links"]
         P, M = dyad["joints"][:2]
@@ -353,13 +419,19 @@ def linkage_topology(description: Mapping):
             links[l2] = (Q, M)
             joints[M] = (l1, l2)
             joints[Q] = (owner[Q], l2)
-        else:
+        elif dyad["kind"] == "RRP":
             joints[M] = (l1, l2)
             sliders[l2] = M
+        else:  # RPR: M is the guide's far end, a known point for later dyads
+            Q = dyad["joints"][2]
+            joints[M] = (l1, "tip")
+            owner[M] = l1
+            joints[Q] = (owner[Q], l2)
+            sleeves[l2] = (Q, l1)
     points = {name: p["link"] for name, p in description.get("points", {}).items()}
     ground = tuple(j for j, (first, _) in joints.items() if first == "ground")
     return Topology(links=links, joints=joints, ground_joints=ground, input_link=inp["link"],
-                    points=points, sliders=sliders)
+                    points=points, sliders=sliders, sleeves=sleeves)
 
 
 def ternary_bars(description: Mapping, link: str, length: float) -> list[tuple[float, float]]:
@@ -420,20 +492,25 @@ def four_bar_loops(mech: Mapping) -> list[tuple[float, float, float, float]]:
 ASSEMBLY_SAMPLES = 3601
 
 
-def _rotate(at, angle):
+def _in_frame(origin, e, at):
+    """Points ``at`` (x, y) of a frame with origin (n, 2) and unit x axis e (n, 2): (n, 2)."""
     import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
 
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([at[0] * c - at[1] * s, at[0] * s + at[1] * c], axis=-1)
+    out = np.empty(e.shape)
+    out[..., 0] = origin[..., 0] + at[0] * e[..., 0] - at[1] * e[..., 1]
+    out[..., 1] = origin[..., 1] + at[0] * e[..., 1] + at[1] * e[..., 0]
+    return out
 
 
 def assembly_error(description: Mapping, angles) -> str | None:
     """Why a dyad description cannot be assembled at some input angle, or None.
 
-    Every RRR dyad needs |l1 − l2| ≤ |PQ| ≤ l1 + l2 and every RRP dyad |h| < l1 (h the
-    distance of P from the guide) at every input angle; checked on the given samples, so a
-    failure narrower than their spacing can pass (the default
-    :data:`ASSEMBLY_SAMPLES` per revolution leaves gaps of 0.1°).
+    Every RRR dyad needs |l1 − l2| ≤ |PQ| ≤ l1 + l2, every RRP dyad |h| < l1 (h the distance
+    of P from the guide) and every RPR dyad |e| < |PQ| (e its offset: the sleeve's distance
+    s = √(|PQ|² − e²) from P along the bar must stay positive) with s ≤ L (the sleeve stays on
+    the bar of length L) at every input angle; checked on the given samples, so a failure
+    narrower than their spacing can pass (the default :data:`ASSEMBLY_SAMPLES` per
+    revolution leaves gaps of 0.1°).
 
     Parameters
     ----------
@@ -447,22 +524,76 @@ def assembly_error(description: Mapping, angles) -> str | None:
     str or None
         A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
     """
+    for i, _, error, _ in _placed(description, angles):
+        if error:
+            return f"dyads[{i}]: {error}"
+    return None
+
+
+def transmission(description: Mapping, angles):
+    """The transmission measure of every dyad at the given input angles, (n, dyad).
+
+    RRR: |sin μ|, μ the angle between its links (cos μ = (l1² + l2² − |PQ|²)/(2 l1 l2), the
+    same on either branch); RRP: |cos(θ_rod − φ_guide)| = √(1 − (h/l1)²), h the distance of P
+    from the guide; RPR: s/L, the sleeve's distance from the bar's pivot over the bar's length
+    (:func:`ced.rigid.dyads.dyad_sines` gives the same from a rigid motion). From positions
+    only, the dyads placed as the assembly check places them, so that a batch's
+    ``near_singular`` costs no velocities or accelerations.
+
+    Parameters
+    ----------
+    description : mapping
+        A dyad description (:func:`describe`) that assembles at every angle.
+    angles : ndarray, (n,)
+        Input angles, rad.
+
+    Returns
+    -------
+    ndarray, (n, dyad)
+        Dimensionless, in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        If a dyad cannot be assembled at one of the angles (the assembly check's message).
+    """
+    import numpy as np
+
+    out = []
+    for i, _, error, measure in _placed(description, angles):
+        if error:
+            raise ValueError(f"dyads[{i}]: {error}")
+        out.append(measure)
+    return np.stack(out, axis=-1)
+
+
+def _placed(description: Mapping, angles):
+    """Place the dyads in order at the input ``angles`` (n,): yield, per dyad, (index, dyad,
+    why it cannot be assembled or None, its transmission measure (n,) or None) and stop at
+    the first that cannot. Each RRR takes its ``branch`` at every angle (a change point is
+    not tracked through: its sine vanishes there anyway)."""
     import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
 
     inp = description["input"]
     known = {name: np.broadcast_to(np.asarray(xy, float), angles.shape + (2,))
              for name, xy in description["ground"].items()}
-    frame = {inp["link"]: (known[inp["pivot"]], angles)}
+    # Each placed link's frame: its first joint and the unit vector along it (n, 2); no
+    # angles, so no trigonometry past the input's.
+    frame = {inp["link"]: (known[inp["pivot"]],
+                           np.stack([np.cos(angles), np.sin(angles)], axis=-1))}
 
     ends = {inp["link"]: inp["tip"]}
     ends.update({d["links"][0]: d["joints"][1] for d in description["dyads"]})
 
     def place(link, length):
-        origin, angle = frame[link]
-        known.setdefault(ends[link], origin + _rotate((length, 0.0), angle))
+        origin, e = frame[link]
+        known.setdefault(ends[link], _in_frame(origin, e, (length, 0.0)))
         for name, point in description.get("points", {}).items():
             if point["link"] == link:
-                known[name] = origin + _rotate(point["at"], angle)
+                known[name] = _in_frame(origin, e, point["at"])
+
+    def left(v):  # v turned a quarter turn counter-clockwise
+        return np.stack([-v[..., 1], v[..., 0]], axis=-1)
 
     ends.update({d["links"][1]: d["joints"][1] for d in description["dyads"]})
     place(inp["link"], inp["length"])
@@ -470,7 +601,7 @@ def assembly_error(description: Mapping, angles) -> str | None:
     for i, dyad in enumerate(description["dyads"]):
         P = known[dyad["joints"][0]]
         l1 = dyad["lengths"][0]
-        sign = 1.0 if dyad["branch"] == "open" else -1.0
+        sign = 1.0 if dyad.get("branch", "open") == "open" else -1.0
         if dyad["kind"] == "RRR":
             l2 = dyad["lengths"][1]
             Q = known[dyad["joints"][2]]
@@ -479,28 +610,77 @@ def assembly_error(description: Mapping, angles) -> str | None:
             bad = (dist > (l1 + l2) * (1 + rtol)) | (dist < abs(l1 - l2) * (1 - rtol))
             if bad.any():
                 k = int(np.argmax(bad))
-                return (f"dyads[{i}]: the RRR dyad {join(dyad['links'])} "
-                        f"cannot be assembled at input angle {angles[k]:.4g} rad: "
-                        f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m is outside "
-                        f"[|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m")
-            cos_beta = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2 * l1 * dist), -1, 1)
-            th1 = np.arctan2(d[..., 1], d[..., 0]) + sign * np.arccos(cos_beta)
-            M = P + _rotate((l1, 0.0), th1)
-            th2 = np.arctan2(M[..., 1] - Q[..., 1], M[..., 0] - Q[..., 0])
-            frame[dyad["links"][0]], frame[dyad["links"][1]] = (P, th1), (Q, th2)
+                yield i, dyad, (f"the RRR dyad {join(dyad['links'])} "
+                                f"cannot be assembled at input angle {angles[k]:.4g} rad: "
+                                f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m "
+                                f"is outside [|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m"), None
+                return
+            # M on the circles about P (l1) and Q (l2): a along P→Q, ±h across it (left for
+            # the open branch).
+            a = np.clip((l1 * l1 - l2 * l2 + dist * dist) / (2 * dist), -l1, l1)
+            h = sign * np.sqrt(l1 * l1 - a * a)
+            u = d / dist[..., None]
+            M = P + a[..., None] * u + h[..., None] * left(u)
+            frame[dyad["links"][0]] = (P, (M - P) / l1)
+            frame[dyad["links"][1]] = (Q, (M - Q) / l2)
             place(dyad["links"][0], l1)
             place(dyad["links"][1], l2)
-        else:
+            cos_mu = np.clip((l1 * l1 + l2 * l2 - dist * dist) / (2 * l1 * l2), -1, 1)
+            yield i, dyad, None, np.sqrt(1.0 - cos_mu * cos_mu)
+        elif dyad["kind"] == "RRP":
             phi = dyad["guide"]["angle"]
+            along = np.array([math.cos(phi), math.sin(phi)])
             normal = np.array([-math.sin(phi), math.cos(phi)])
             h = (P - np.asarray(dyad["guide"]["point"])) @ normal
             bad = np.abs(h) >= l1 * (1 - rtol)
             if bad.any():
                 k = int(np.argmax(bad))
-                return (f"dyads[{i}]: the RRP dyad {dyad['links'][0]} cannot reach its "
-                        f"guide at input angle {angles[k]:.4g} rad: {dyad['joints'][0]} is "
-                        f"{abs(h[k]):.4g} m from it, the link {l1:g} m long")
-            th1 = phi + np.arctan2(-h / l1, sign * np.sqrt(1 - (h / l1) ** 2))
-            frame[dyad["links"][0]] = (P, th1)
+                yield i, dyad, (f"the RRP dyad {dyad['links'][0]} cannot reach its "
+                                f"guide at input angle {angles[k]:.4g} rad: "
+                                f"{dyad['joints'][0]} is {abs(h[k]):.4g} m from it, the link "
+                                f"{l1:g} m long"), None
+                return
+            # n·(M − P) = −h with M − P = l1 e1: e1 = ±√(1 − (h/l1)²) along − (h/l1) normal.
+            cosine = np.sqrt(1 - (h / l1) ** 2)
+            e1 = (sign * cosine)[..., None] * along - (h / l1)[..., None] * normal
+            frame[dyad["links"][0]] = (P, e1)
             place(dyad["links"][0], l1)
-    return None
+            yield i, dyad, None, cosine
+        else:
+            error, e1, slide = _rpr_assembly(dyad, P, known[dyad["joints"][2]], angles, rtol)
+            if error:
+                yield i, dyad, error, None
+                return
+            frame[dyad["links"][0]] = (P, e1)
+            place(dyad["links"][0], l1)
+            yield i, dyad, None, np.minimum(slide / l1, 1.0)
+
+
+def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):
+    """(message or None, the bar's unit vector (n, 2), slide (n,) m) of an RPR dyad whose
+    pivots are at P and Q."""
+    import numpy as np
+
+    (guide, sleeve), (p, _, q) = dyad["links"], dyad["joints"]
+    length, offset = dyad["lengths"][0], dyad["offset"]
+    d = Q - P
+    dist = np.hypot(d[..., 0], d[..., 1])
+    # Q − P = s e + offset e⊥ with e along the bar: s = √(|PQ|² − offset²) > 0, s ≤ L.
+    slide = np.sqrt(np.clip(dist * dist - offset * offset, 0.0, None))
+    bad = slide <= rtol * length
+    if bad.any():
+        k = int(np.argmax(bad))
+        return (f"the RPR dyad {guide}, {sleeve} cannot be assembled at input angle "
+                f"{angles[k]:.4g} rad: |{p}{q}| = {dist[k]:.4g} m is not more than |offset| = "
+                f"{abs(offset):g} m, so the sleeve at {q} would sit on the bar's pivot {p}"
+                ), None, None
+    bad = slide > length * (1 + rtol)
+    if bad.any():
+        k = int(np.argmax(bad))
+        return (f"the sleeve {sleeve} runs off the end of the guide bar {guide} at input angle "
+                f"{angles[k]:.4g} rad: it is {slide[k]:.4g} m along the bar from {p}, the bar "
+                f"{length:g} m long (lengths[0])"), None, None
+    # e = (s (Q − P) − offset (Q − P)⊥)/|PQ|², the bar's unit vector.
+    across = np.stack([-d[..., 1], d[..., 0]], axis=-1)
+    e = (slide[..., None] * d - offset * across) / (dist * dist)[..., None]
+    return None, e, slide

@@ -56,7 +56,9 @@ class Topology:
     force is the force exerted on the second body by the first ("ground" and "slider" are
     bodies without elastic model). ``points`` maps a joint at a point of a link other than its
     two ends (a ternary link's third joint) to that link; ``sliders`` maps each slider block
-    (a body on a fixed straight guide) to its joint.
+    (a body on a fixed straight guide) to its joint; ``sleeves`` maps each sleeve of an RPR
+    dyad (a body turning about its pivot joint and sliding along a guide link) to (its pivot
+    joint, the guide link).
     """
 
     links: dict[str, tuple[str, str]]
@@ -65,6 +67,7 @@ class Topology:
     input_link: str = "crank"
     points: dict[str, str] = field(default_factory=dict)
     sliders: dict[str, str] = field(default_factory=dict)
+    sleeves: dict[str, tuple[str, str]] = field(default_factory=dict)
 
     @property
     def link_names(self) -> list[str]:

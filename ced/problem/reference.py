@@ -23,6 +23,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 from .errors import Choice, Real
+from .linkage import DYAD_KEYS, DYAD_MEANINGS
 from .materials import MATERIAL_FIELDS, SECTION_FIELDS, SECTION_SHAPES, material_aliases, \
     material_names
 from .mechanism import topology
@@ -30,7 +31,24 @@ from .scene import (BLOCKS, BUILTIN_LINK, DEFAULT_EFFECTS, DEFAULT_GRAVITY, DEFA
                     EFFECTS, MECHANISM_FIELDS, MECHANISM_TYPES, MEANINGS, MODEL_PARAMETERS,
                     NAME_CHECK, POINT_MASS_CHECK, REQUIRED, TOLERANCE_CHECK)
 
-__all__ = ["scene_reference", "markdown_table", "scene_rows"]
+__all__ = ["scene_reference", "markdown_table", "scene_rows", "RPR_EXAMPLE"]
+
+#: The worked RPR example of the scene reference (a scene ``tests/test_docs_reference.py``
+#: loads).
+RPR_EXAMPLE = """\
+mechanism:
+  type: linkage
+  ground: {A: [0.0, 0.0], O: [0.0, -0.25]}
+  input: {link: crank, pivot: A, tip: B, length: 0.1}
+  dyads:
+    - {kind: RPR, links: [lever, block], joints: [O, C, B], lengths: [0.45],
+       offset: 0.0, sleeve_mass: 0.4, sleeve_inertia: 3.0e-4}
+    - {kind: RRP, links: [rod, ram], joints: [C, F], lengths: [0.15],
+       guide: {point: [0.0, 0.22], angle: 0.0}, slider_mass: 2.0}
+links:
+  crank: {flexible: true}
+  rod: {flexible: true}
+"""
 
 _BLOCK_TITLES = {
     "drive": "How the input link is driven.",
@@ -219,6 +237,28 @@ def scene_reference() -> str:
     for kind in MECHANISM_FIELDS:
         parts += [f"### `type: {kind}`", "", markdown_table(_HEADER, rows[f"mechanism.{kind}"]),
                   ""]
+    parts += [
+        "#### Dyads",
+        "",
+        "Each entry of `mechanism.dyads` has a `kind` and the keys of that kind "
+        "(`links`, `joints` and `lengths` required); known points are the ground pivots, "
+        "the input's tip, the far end of an RPR guide bar and the points of links placed "
+        "before the dyad (guide: {doc}`../guide/six_bars`).",
+        "",
+        markdown_table(["kind", "key", "meaning"],
+                       [[kind, key, DYAD_MEANINGS[f"{kind}.{key}"]]
+                        for kind, keys in DYAD_KEYS.items() for key in keys]),
+        "",
+        "An RPR dyad: Whitworth's quick return as a crank shaper. The crank's tip B carries "
+        "the block, which slides along the slotted lever turning about O; the lever's end C "
+        "drives the ram through a rod (an RRP dyad). The lever is rigid; the crank and the "
+        "rod may be flexible.",
+        "",
+        "```yaml",
+        RPR_EXAMPLE.rstrip("\n"),
+        "```",
+        "",
+    ]
     parts += [
         "## `links` and `point_masses`",
         "",

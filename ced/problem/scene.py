@@ -229,7 +229,12 @@ MEANINGS: dict[str, str] = {
                                "links [P→M, Q→M], joints [P, M, Q]) or to one point and a "
                                "fixed guide (RRP: links [rod, slider], joints [P, M], guide "
                                "{point, angle}); branch open puts M on the left of P→Q (RRR) "
-                               "or ahead of P along the guide (RRP)",
+                               "or ahead of P along the guide (RRP). RPR: links [guide, "
+                               "sleeve], joints [P, T, Q], lengths [L]: a rigid guide bar "
+                               "P→T turning about P, through a sleeve turning about Q at the "
+                               "signed offset (m, default 0) to the left of the bar's line; "
+                               "sleeve_mass (kg) at Q and sleeve_inertia (kg m², about Q), "
+                               "default 0; one assembly (no branch); T may stay free",
     "links.default": "properties every link inherits, key by key, unless the link overrides them",
     "links.<link>.material": "a library material name, or an inline {E, rho, nu[, "
                              "yield_strength, name, source]} mapping",
@@ -349,14 +354,35 @@ def _assembly(mechanism: dict, drive: dict) -> None:
         raise SceneError("mechanism", message)
 
 
-def _links(value: Any, names: tuple[str, ...], ternary: frozenset = frozenset()) -> dict:
+def _rigid_links(topo) -> dict[str, str]:
+    """Links ced models as rigid bodies whatever ``flexible`` says, each with why."""
+    why = {link: (f"the {link} is a ternary link (it carries a point), which ced models as a "
+                  "rigid body; flexible: true is allowed on binary links only")
+           for link in topo.points.values()}
+    for sleeve, (_, bar) in topo.sleeves.items():
+        why[bar] = (f"the {bar} is the guide bar of an RPR dyad: its sleeve {sleeve} slides "
+                    "along it, a load moving over the bar that the linear floating-frame "
+                    "model cannot represent, so ced models it as a rigid body; flexible: true "
+                    "is allowed on the binary links of RRR and RRP dyads and the input")
+    return why
+
+
+def _links(value: Any, names: tuple[str, ...], rigid: Mapping[str, str] | None = None,
+           bodies: Mapping[str, str] | None = None) -> dict:
     """Merge built-in default, ``links.default`` and each named link; resolve and validate.
 
-    Each resolved value is validated at the path where it was written. A ternary link (one
-    with a point) is rigid: ``flexible: true`` written on it is refused, an inherited one is
-    ignored.
+    Each resolved value is validated at the path where it was written. A link of ``rigid``
+    (a ternary link, an RPR guide bar: link -> why) is rigid: ``flexible: true`` written on
+    it is refused with that reason, an inherited one is ignored. ``bodies`` (a slider block
+    or RPR sleeve -> what it is) are refused as links, saying where their mass is given.
     """
     value = {} if value is None else value
+    rigid = rigid or {}
+    if isinstance(value, Mapping):
+        for body, what in (bodies or {}).items():
+            if body in value:
+                raise SceneError(f"links.{body}", f"the {body} is {what}, not a link: it has "
+                                                  "no material, section or flexibility")
     check_keys(value, "links", ("default",) + names, what="link")
     entries = {}
     for key in ("default",) + names:
@@ -375,11 +401,9 @@ def _links(value: Any, names: tuple[str, ...], ternary: frozenset = frozenset())
         material = resolve_material(*merged["material"])
         section = section_properties(merged["section"][0], material["nu"], merged["section"][1])
         flexible = Bool()(*merged["flexible"])
-        if key in ternary:
+        if key in rigid:
             if flexible and merged["flexible"][1] == f"links.{key}.flexible":
-                raise SceneError(merged["flexible"][1], (
-                    f"the {key} is a ternary link (it carries a point), which ced models as "
-                    "a rigid body; flexible: true is allowed on binary links only"))
+                raise SceneError(merged["flexible"][1], rigid[key])
             flexible = False
         if key != "default":
             out[key] = {"material": material, "section": section, "flexible": flexible}
@@ -442,8 +466,11 @@ def _normalize(raw: Any) -> dict:
     topo = topology(mechanism)
 
     scene: dict[str, Any] = {"name": NAME_CHECK(raw.get("name", ""), "name"), "mechanism": mechanism}
-    scene["links"] = _links(raw.get("links"), tuple(topo.link_names),
-                            frozenset(topo.points.values()))
+    bodies = {**{b: "the slider block of an RRP dyad (its slider_mass)" for b in topo.sliders},
+              **{b: "the sleeve of an RPR dyad (its sleeve_mass, sleeve_inertia)"
+                 for b in topo.sleeves}}
+    scene["links"] = _links(raw.get("links"), tuple(topo.link_names), _rigid_links(topo),
+                            bodies)
     scene["point_masses"] = _point_masses(raw.get("point_masses"), tuple(topo.joint_names))
     scene["drive"] = _block(raw.get("drive"), "drive", BLOCKS["drive"])
     scene["effects"] = _effects(raw["effects"]) if "effects" in raw else list(DEFAULT_EFFECTS)

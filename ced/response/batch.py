@@ -222,7 +222,8 @@ def _linkage_bodies(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyP
     """Mass properties of the links of linkages of dyads: each link is its bars
     (:func:`ced.problem.linkage.ternary_bars`), uniform rods of the link's section welded at
     its first joint; each bar of length ℓ has mass ρAℓ, centroid at mid-bar and centroidal
-    inertia ρAℓ³/12 + ρℓ I_section; the link's sums by the parallel-axis theorem."""
+    inertia ρAℓ³/12 + ρℓ I_section; the link's sums by the parallel-axis theorem. Slider
+    blocks and RPR sleeves take the masses (and a sleeve its inertia) of their dyads."""
     topo = topology(scenes[0]["mechanism"])
     ncase = len(scenes)
     mass = np.zeros((ncase, len(topo.links)))
@@ -230,6 +231,7 @@ def _linkage_bodies(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyP
     centre = np.zeros((ncase, len(topo.links), 2))
     point = np.zeros((ncase, len(topo.joints)))
     slider = np.zeros((ncase, len(topo.sliders)))
+    sleeve = np.zeros((ncase, len(topo.sleeves), 2))
     for c, scene in enumerate(scenes):
         description = describe(scene["mechanism"])
         for i, name in enumerate(topo.links):
@@ -249,7 +251,12 @@ def _linkage_bodies(scenes: list[dict], lengths: dict[str, np.ndarray]) -> BodyP
         masses = {d["links"][1]: d["slider_mass"] for d in description["dyads"]
                   if d["kind"] == "RRP"}
         slider[c] = [masses[name] for name in topo.sliders]
-    return BodyProperties(mass, inertia, point, slider, centre)
+        rpr = {d["links"][1]: d for d in description["dyads"] if d["kind"] == "RPR"}
+        for k, name in enumerate(topo.sleeves):
+            sleeve[c, k] = rpr[name]["sleeve_mass"], rpr[name]["sleeve_inertia"]
+    if not topo.sleeves:
+        return BodyProperties(mass, inertia, point, slider, centre)
+    return BodyProperties(mass, inertia, point, slider, centre, sleeve[..., 0], sleeve[..., 1])
 
 
 def make_batch(scenes: list[dict]) -> Batch:

@@ -15,10 +15,10 @@ import numpy as np
 
 from ..fem.recovery import deflection, link_fields, peaks
 from ..problem.errors import SceneError
-from ..problem.linkage import ASSEMBLY_SAMPLES, describe
+from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
 from ..problem.status import STATUS_FLAGS
-from ..rigid.dyads import dyad_sines
+from ..rigid.kinematics import input_motion
 from .batch import Batch
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import from_independent, integrator_for, stability_limit, start
@@ -43,9 +43,9 @@ BEAMS = ("euler_bernoulli", "timoshenko", "seed_lame")
 
 def _near_singular(batch: Batch) -> np.ndarray:
     """(case,) bool: :func:`ced.problem.mechanism.near_singular` for four-bars (exact); for
-    linkages of dyads, the smallest transmission sine of any dyad
-    (:func:`ced.rigid.dyads.dyad_sines`) over one input period sampled at
-    :data:`ced.problem.linkage.ASSEMBLY_SAMPLES` instants (0.1° of a crank) below
+    linkages of dyads, the smallest transmission measure of any dyad
+    (:func:`ced.problem.linkage.transmission`, from positions only) over one input period
+    sampled at :data:`ced.problem.linkage.ASSEMBLY_SAMPLES` instants (0.1° of a crank) below
     :data:`ced.problem.mechanism.NEAR_SINGULAR_SIN`; other mechanisms have no dyad that can
     fold."""
     if batch.mechanism_type == "four_bar":
@@ -56,9 +56,10 @@ def _near_singular(batch: Batch) -> np.ndarray:
         return np.zeros(batch.size, bool)
     period = 2.0 * math.pi / batch.speed
     times = period[:, None] * np.linspace(0.0, 1.0, ASSEMBLY_SAMPLES)[None, :]
-    motion = batch.rigid_motion(times)
-    sines = dyad_sines(motion, describe(batch.scenes[0]["mechanism"]))
-    return sines.min(axis=(1, 2)) < NEAR_SINGULAR_SIN
+    angle = input_motion(times, batch.speed, batch.initial_angle, batch.amplitude).angle
+    worst = np.array([transmission(describe(scene["mechanism"]), angle[c]).min()
+                      for c, scene in enumerate(batch.scenes)])
+    return worst < NEAR_SINGULAR_SIN
 
 
 def elastic_response(batch: Batch, status: np.ndarray,

@@ -12,6 +12,7 @@ chunk to the marching loop.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -107,6 +108,15 @@ def build_model(batch: Batch) -> Model:
             # moment of inertia, as in the inverse dynamics): the rigid angular acceleration
             # loads it with the couple −ρILα, as a Timoshenko beam's sections.
             rotary = par["rho"] * sec["second_moment"]
+            sleeve = _sleeve_inertia(batch, name)
+            if sleeve is not None:
+                # The sleeve of an RPR dyad turns with its guide bar (φ): its moment of
+                # inertia about its pivot J joins the bar's on φ, loaded with −Jα; its mass
+                # rides on its pivot joint (joint_mass below).
+                mass = m.mass.copy()
+                mass[..., 2, 2] += sleeve
+                m = dataclasses.replace(m, mass=mass)
+                rotary = rotary + sleeve / length
             ends[name] = ((0, 1), (0, 1))  # unused: a rigid link's ends follow from (u0, v0, φ)
         links[name] = LinkData(
             mass=m.mass, translational_mass=m.translational_mass, stiffness=m.stiffness,
@@ -127,12 +137,22 @@ def build_model(batch: Batch) -> Model:
     slider_mass = slider_mass[:, None] if slider_mass.ndim == 1 else slider_mass
     for k, joint in enumerate(topo.sliders.values()):
         joint_mass[:, topo.joint_names.index(joint)] += slider_mass[:, k]
+    for k, (joint, _) in enumerate(topo.sleeves.values()):
+        joint_mass[:, topo.joint_names.index(joint)] += batch.bodies.sleeve_mass[:, k]
     effects = set(scene["effects"])
     model = Model(batch, layout, links, recovery, stations, effects, joint_mass,
                   points=points, ternary=ternary)
     if "damping" in effects and scene["damping"]["model"] == "modal":
         model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
     return model
+
+
+def _sleeve_inertia(batch: Batch, link: str) -> np.ndarray | None:
+    """Moment of inertia (case,) kg m² of the RPR sleeve that turns with ``link``, or None."""
+    for k, (_, bar) in enumerate(batch.topology.sleeves.values()):
+        if bar == link:
+            return batch.bodies.sleeve_inertia[:, k]
+    return None
 
 
 def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict]:
@@ -161,16 +181,25 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
                (("material", "rho"), ("section", "area"), ("section", "second_moment"))}
         n = batch.size
         mass, trans, gyro = (np.zeros((n, 3, 3)) for _ in range(3))
-        for c in range(n):
-            for x, y in ternary_bars(descriptions[c], name, batch.link_lengths[c, i]):
-                bar = elements.rigid_body.link_matrices(
-                    np.hypot(x, y), rho=par["rho"][c], area=par["area"][c],
-                    second_moment=par["second_moment"][c])
-                cb, sb = x / np.hypot(x, y), y / np.hypot(x, y)
-                T = np.array([[cb, sb, 0.0], [-sb, cb, 0.0], [0.0, 0.0, 1.0]])
-                mass[c] += T.T @ bar.mass @ T
-                trans[c] += T.T @ bar.translational_mass @ T
-                gyro[c] += T.T @ bar.gyroscopic @ T
+        bars = [ternary_bars(descriptions[c], name, batch.link_lengths[c, i]) for c in range(n)]
+        # Bar k of every case at once (a case whose point lies on the bar has one bar fewer:
+        # those go case by case).
+        same = all(len(b) == len(bars[0]) for b in bars)
+        groups = ([(np.arange(n), [b[k] for b in bars]) for k in range(len(bars[0]))] if same
+                  else [([c], [xy]) for c in range(n) for xy in bars[c]])
+        for cases, ends in groups:
+            x, y = np.asarray(ends, float).T
+            length = np.hypot(x, y)
+            bar = elements.rigid_body.link_matrices(
+                length, rho=par["rho"][cases], area=par["area"][cases],
+                second_moment=par["second_moment"][cases])
+            T = np.zeros((len(length), 3, 3))
+            T[:, 0, 0] = T[:, 1, 1] = x / length
+            T[:, 0, 1], T[:, 1, 0], T[:, 2, 2] = y / length, -y / length, 1.0
+            Tt = np.swapaxes(T, -1, -2)
+            mass[cases] += Tt @ bar.mass @ T
+            trans[cases] += Tt @ bar.translational_mass @ T
+            gyro[cases] += Tt @ bar.gyroscopic @ T
         geometric = np.zeros((n, 3, 3, 3))
         geometric[:, 0, 2, 2] = 1.0  # K_φφ = N0 · 1: the coefficient carries Σ F·r
         load_constant = np.broadcast_to(np.eye(3)[:, :2], (n, 3, 2)).copy()
@@ -303,12 +332,13 @@ def terms_at(
               if motion.guide_angle else None)
     P = projection(layout, batch.link_lengths, motion.link_angle,
                    motion.link_angular_velocity, motion.link_angular_acceleration,
-                   model.points, guides)
+                   model.points, guides, motion.slide)
     g = gravity[:, None, :]
     loads, axial = {}, {} if "axial_stiffening" in effects else None
-    forces = None
+    forces = sleeve_forces = None
     if axial is not None:
-        forces = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia).joint_force
+        rigid = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia)
+        forces, sleeve_forces = rigid.joint_force, rigid.sleeve_force
     carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
     for i, name in enumerate(topo.links):
         th = motion.link_angle[..., i]
@@ -353,9 +383,48 @@ def terms_at(
     terms = system_terms(layout, model.links, P, motion.link_angular_velocity,
                          motion.link_angular_acceleration, loads, axial, model.joint_mass,
                          joint_load, effects, frozenset(extras))
+    if sleeve_forces is not None:
+        _add_sleeve_stiffness(layout, motion, P[0], sleeve_forces, terms.stiffness)
     if "damping" in effects:
         _add_damping(model, terms)
     return terms, P[0]
+
+
+def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces: np.ndarray,
+                          K: np.ndarray) -> None:
+    """Add the second-order work of each RPR sleeve's normal force to K (axial stiffening).
+
+    To second order the closure of an RPR dyad, with the bar's small rotation φ and the pivots'
+    translations U_P, U_Q, is g = e⊥·ΔU − s φ − φ e·ΔU − (offset/2) φ² = 0, ΔU = U_Q − U_P
+    (expand e⊥(θ + φ)·(Q + U_Q − offset e⊥(θ + φ) − P − U_P)). The linear model keeps its
+    first-order part (the prismatic constraint, :mod:`ced.fem.coupling`); the normal force N
+    of the bar on the sleeve (the multiplier of g: its force on U_Q is N e⊥) works on the
+    second-order part, which stores V = N (φ e·ΔU + (offset/2) φ²): K gains
+    N offset zφ zφᵀ + N (zφ wᵀ + w zφᵀ), zφ the bar's φ row of P, w = eᵀ(P_Q − P_P). The bar's
+    own forces (pivot, end, weight, d'Alembert) act through its ∫N ds like any rigid link's.
+    """
+    topo = layout.topology
+    nf = P0.shape[-1]
+    if not nf:
+        return
+    link_offsets, joint_offsets = layout.link_offsets, layout.joint_offsets
+    for k, (sleeve, (pivot, bar)) in enumerate(topo.sleeves.items()):
+        i = topo.link_names.index(bar)
+        base = topo.links[bar][0]
+        th = motion.link_angle[..., i]
+        e = np.stack([np.cos(th), np.sin(th)], axis=-1)
+        n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
+        kq, kp = topo.joint_names.index(pivot), topo.joint_names.index(base)
+        offset = np.sum((motion.joint_position[:, :, kq] - motion.joint_position[:, :, kp]) * n,
+                        axis=-1)
+        z_phi = P0[..., link_offsets[bar] + 2, :]
+        rows = lambda j: P0[..., joint_offsets[j] : joint_offsets[j] + 2, :]  # noqa: E731
+        w = np.einsum("csa,csaf->csf", e, rows(pivot) - rows(base))
+        N = sleeve_forces[:, :, k, 0]
+        K[..., :nf, :nf] += ((N * offset)[..., None, None] * z_phi[..., :, None]
+                             * z_phi[..., None, :])
+        K[..., :nf, :nf] += N[..., None, None] * (z_phi[..., :, None] * w[..., None, :]
+                                                  + w[..., :, None] * z_phi[..., None, :])
 
 
 def _add_damping(model: Model, terms: SystemTerms) -> None:

@@ -1,8 +1,8 @@
 """Rigid kinematics of any linkage built from dyads, closed form per dyad, batched.
 
 The input link turns about its ground pivot; each dyad is then placed in order from two
-known points (RRR) or a known point and a fixed guide (RRP), exactly as the four-bar and the
-slider-crank of :mod:`ced.rigid.kinematics` (which are the one-dyad cases, docs/theory.md
+known points (RRR, RPR) or a known point and a fixed guide (RRP), exactly as the four-bar and
+the slider-crank of :mod:`ced.rigid.kinematics` (which are the one-dyad cases, docs/theory.md
 "Linkages built from dyads"). Velocities and accelerations follow from the differentiated
 closure of each dyad, in the same order, so every quantity is exact to round-off.
 Shapes as in :mod:`ced.rigid.kinematics`: lengths (case,), motion (case, step).
@@ -92,6 +92,30 @@ def _rrp(P, length, guide_angle, guide_point, branch):
     return th, w, al
 
 
+def _rpr(P, Q, offset):
+    """Place an RPR dyad: the guide bar's angle, rate, acceleration and the sleeve's slide.
+
+    The bar turns about P; the sleeve turns about Q and slides along it, Q at the signed
+    distance ``offset`` e to the left of the bar's line: Q − P = s e1 + e e⊥1 (e1 along the
+    bar, s the sleeve's distance from P along it). Hence s = √(|PQ|² − e²) and
+    θ1 = ψ − atan2(e, s), ψ the angle of P→Q. Differentiating the closure once,
+    vQ − vP = (ṡ − e ω) e1 + s ω e⊥1, and twice,
+    aQ − aP = (s̈ − e α − s ω²) e1 + (2 ṡ ω − e ω² + s α) e⊥1, each dotted with e⊥1 and e1.
+    """
+    d = Q[0] - P[0]
+    dist2 = np.sum(d * d, axis=-1)
+    e = offset[:, None]
+    s = np.sqrt(np.clip(dist2 - e * e, 0.0, None))
+    th = np.unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s), axis=1)
+    e1, n1 = unit(th), perp(th)
+    dv, da = Q[1] - P[1], Q[2] - P[2]
+    w = np.sum(dv * n1, axis=-1) / s
+    ds = np.sum(dv * e1, axis=-1) + e * w
+    al = (np.sum(da * n1, axis=-1) - 2.0 * ds * w + e * w * w) / s
+    dds = np.sum(da * e1, axis=-1) + e * al + s * w * w
+    return (th, w, al), (s, ds, dds)
+
+
 def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     """Closed-form kinematics of a batch of linkages of one dyad structure.
 
@@ -108,7 +132,8 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     RigidMotion
         Angles and rates of every link (case, step, link), positions, velocities and
         accelerations of every joint (case, step, joint, 2), the link lengths first→second
-        joint (case, link) and the guide angle of every slider block (rad, (case,)).
+        joint (case, link), the guide angle of every slider block (rad, (case,)) and the
+        slide of every RPR sleeve along its guide bar (m, m/s, m/s², (case, step)).
     """
     first = descriptions[0]
     topo = linkage_topology(first)
@@ -121,6 +146,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     angles: dict[str, tuple] = {}
     lengths: dict[str, np.ndarray] = {}
     guide_angle: dict[str, np.ndarray] = {}
+    slide: dict[str, tuple] = {}
     singular = np.zeros(shape, bool)
     inp = first["input"]
     lengths[inp["link"]] = _column(descriptions, lambda d: d["input"]["length"])
@@ -142,9 +168,14 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     for k, dyad in enumerate(first["dyads"]):
         l1, l2 = dyad["links"]
         P = known[dyad["joints"][0]]
+        lengths[l1] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][0])
+        if dyad["kind"] == "RPR":
+            offset = _column(descriptions, lambda d: d["dyads"][k]["offset"])
+            angles[l1], slide[l2] = _rpr(P, known[dyad["joints"][2]], offset)
+            place(l1)
+            continue
         branch = _column(descriptions, lambda d: 1.0 if d["dyads"][k]["branch"] == "open"
                          else -1.0)[:, None]
-        lengths[l1] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][0])
         if dyad["kind"] == "RRR":
             Q = known[dyad["joints"][2]]
             lengths[l2] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][1])
@@ -173,15 +204,22 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         joint_acceleration=np.stack([j[2] for j in joints], axis=2),
         singular=singular,
         guide_angle=guide_angle,
+        slide=slide or None,
     )
 
 
 def dyad_sines(motion: RigidMotion, description: dict) -> np.ndarray:
-    """|sin| of the angle between the two links of every RRR dyad, (case, step, dyad).
+    """The transmission quality of every dyad, (case, step, dyad), in [0, 1].
 
-    The transmission quality of each dyad: where it falls to 0 the dyad is at a toggle and the
-    pin-jointed structure loses its stiffness across the dyad (as the four-bar's
-    :func:`ced.problem.mechanism.dyad_sine_min`); RRP dyads give |cos(θ_rod − φ_guide)|.
+    RRR: |sin| of the angle between its two links; where it falls to 0 the dyad is at a toggle
+    and the pin-jointed structure loses its stiffness across the dyad (as the four-bar's
+    :func:`ced.problem.mechanism.dyad_sine_min`). RRP: |cos(θ_rod − φ_guide)|. RPR: s/L, the
+    sleeve's distance from the guide bar's pivot as a fraction of the bar's length: the bar
+    turns by ω = e⊥·(vQ − vP)/s, so its end moves (L/s) times as fast as the sleeve's pivot
+    moves across the bar, and what the end carries is felt at the sleeve amplified by L/s
+    (the stiffness seen at the end scales as (s/L)², as a dyad's across its joint as sin²).
+    At s = 0 the sleeve sits on the pivot (|PQ| = |offset|), which the assembly check refuses;
+    s/L flags the approach to it.
 
     Parameters
     ----------
@@ -198,11 +236,14 @@ def dyad_sines(motion: RigidMotion, description: dict) -> np.ndarray:
     names = motion.topology.link_names
     out = []
     for dyad in description["dyads"]:
-        th1 = motion.link_angle[..., names.index(dyad["links"][0])]
+        i = names.index(dyad["links"][0])
+        th1 = motion.link_angle[..., i]
         if dyad["kind"] == "RRR":
             th2 = motion.link_angle[..., names.index(dyad["links"][1])]
             out.append(np.abs(np.sin(th2 - th1)))
-        else:
+        elif dyad["kind"] == "RRP":
             out.append(np.abs(np.cos(th1 - motion.guide_angle[dyad["links"][1]][:, None])))
+        else:
+            slide = motion.slide[dyad["links"][1]][0]
+            out.append(np.clip(slide / motion.lengths[:, i, None], 0.0, 1.0))
     return np.stack(out, axis=-1)
-

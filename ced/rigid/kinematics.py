@@ -70,6 +70,9 @@ class RigidMotion:
     where the transmission is singular (change point, toggle) and velocities were interpolated.
     ``guide_angle`` maps each slider block of a linkage of dyads to its guide's angle (case,)
     rad; None for the built-in mechanisms (a slider-crank's guide is parallel to x).
+    ``slide`` maps each sleeve of an RPR dyad to its distance s from the guide bar's pivot
+    along the bar (m), its rate (m/s) and acceleration (m/s²), each (case, step); None
+    without sleeves.
     """
 
     topology: Topology
@@ -83,6 +86,7 @@ class RigidMotion:
     joint_acceleration: np.ndarray
     singular: np.ndarray
     guide_angle: dict[str, np.ndarray] | None = None
+    slide: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
 
     def link_point(self, link: str, s: np.ndarray | float, order: int = 0) -> np.ndarray:
         """Position (order 0), velocity (1) or acceleration (2) of the point at distance

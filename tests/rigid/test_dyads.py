@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ced.problem.linkage import describe
+from ced.problem.mechanism import topology
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
 from ced.rigid import dyads
@@ -32,13 +33,37 @@ PRESS = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [0.5, 0.0]},
                    {"kind": "RRP", "links": ["rod", "ram"], "joints": ["E", "F"],
                     "lengths": [0.5], "guide": {"point": [0.9, -0.05], "angle": 0.3},
                     "slider_mass": 1.5, "branch": "crossed"}]}
-MECHANISMS = {"watt_ii": WATT_II, "stephenson_iii": STEPHENSON_III, "press": PRESS}
+#: Whitworth's quick return as a crank shaper: the crank A→B carries the block (an RPR
+#: sleeve) that slides along the slotted lever O→C, whose end C drives the ram through a rod
+#: (RRP). The lever oscillates (crank 0.1 m < |AO| 0.25 m).
+SHAPER = {"type": "linkage", "ground": {"A": [0.0, 0.0], "O": [0.0, -0.25]},
+          "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+          "dyads": [{"kind": "RPR", "links": ["lever", "block"], "joints": ["O", "C", "B"],
+                     "lengths": [0.45], "sleeve_mass": 0.4, "sleeve_inertia": 3e-4},
+                    {"kind": "RRP", "links": ["rod", "ram"], "joints": ["C", "F"],
+                     "lengths": [0.15], "guide": {"point": [0.0, 0.22], "angle": 0.0},
+                     "slider_mass": 2.0}]}
+#: An oscillating cylinder: the piston rod pinned to the crank at B slides through a cylinder
+#: (the sleeve) swivelling about the ground pivot O, off the rod's axis by 0.03 m; the rod's
+#: end C is free.
+CYLINDER = {"type": "linkage", "ground": {"A": [0.0, 0.0], "O": [0.3, 0.05]},
+            "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+            "dyads": [{"kind": "RPR", "links": ["rod", "cylinder"], "joints": ["B", "C", "O"],
+                       "lengths": [0.45], "offset": -0.03, "sleeve_mass": 0.8,
+                       "sleeve_inertia": 2e-3}]}
+MECHANISMS = {"watt_ii": WATT_II, "stephenson_iii": STEPHENSON_III, "press": PRESS,
+              "shaper": SHAPER, "cylinder": CYLINDER}
+POINT_MASSES = {"C": 0.2, "E": 0.1, "F": 0.3}
 
 
 def _scene(mechanism, **extra):
+    """The rigid scene with gravity and the point masses of :data:`POINT_MASSES` at the
+    joints the mechanism has."""
+    joints = topology(load_scene({**RIGID, "mechanism": mechanism})["mechanism"]).joint_names
     return load_scene({**RIGID, "mechanism": mechanism, "gravity": [0.3, -9.81],
                        "effects": ["inertia", "gravity"],
-                       "point_masses": {"C": 0.2, "E": 0.1, "F": 0.3}, **extra})
+                       "point_masses": {j: m for j, m in POINT_MASSES.items() if j in joints},
+                       **extra})
 
 
 def _motion(scene, times):
@@ -126,7 +151,16 @@ def test_six_bar_loop_closure_to_round_off(name):
             assert np.allclose(sines[:, k], np.abs(u @ [math.cos(guide), math.sin(guide)]),
                                rtol=0, atol=1e-14)
         side = (M - P)
-        if dyad["kind"] == "RRR":
+        if dyad["kind"] == "RPR":  # Q − P = s e + offset e⊥, the sleeve on the bar
+            Q, i = at[dyad["joints"][2]], topo.link_names.index(dyad["links"][0])
+            th, L = motion.link_angle[0, :, i], motion.lengths[0, i]
+            e = np.stack([np.cos(th), np.sin(th)], -1)
+            n = np.stack([-e[:, 1], e[:, 0]], -1)
+            slide = motion.slide[dyad["links"][1]][0][0]
+            assert np.abs(Q - P - slide[:, None] * e - dyad["offset"] * n).max() < 1e-15
+            assert np.all((slide > 0) & (slide <= L))
+            assert np.allclose(sines[:, k], slide / L, rtol=0, atol=1e-15)
+        elif dyad["kind"] == "RRR":
             Q = at[dyad["joints"][2]]
             cross = (Q - P)[:, 0] * side[:, 1] - (Q - P)[:, 1] * side[:, 0]
             assert np.all(np.sign(cross) == (1 if dyad["branch"] == "open" else -1))
@@ -150,8 +184,10 @@ def test_six_bar_derivatives_match_finite_differences(name, phase):
 
 @pytest.mark.parametrize("name", sorted(MECHANISMS))
 def test_six_bar_power_balance(name):
-    """Input power = d(T + V)/dt with ternary links, point masses, gravity and a slider."""
-    scene = _scene(MECHANISMS[name])
+    """Input power = d(T + V)/dt with ternary links, point masses, gravity, a slider and the
+    sleeves of RPR dyads (their frictionless slide does no work)."""
+    # 2048 steps: the central difference below stays within 2e-4 on the shaper's quick return.
+    scene = _scene(MECHANISMS[name], time={"revolutions": 1, "steps_per_revolution": 2048})
     batch = make_batch([scene])
     motion = batch.rigid_motion()
     forces = inverse_dynamics(motion, batch.bodies, batch.gravity)
@@ -186,6 +222,10 @@ def _energy(motion, bodies, gravity):
     masses = bodies.point_mass.copy()
     for s, slider in enumerate(topo.sliders):
         masses[:, topo.joint_names.index(topo.sliders[slider])] += bodies.slider_mass[:, s]
+    for s, (pivot, bar) in enumerate(topo.sleeves.values()):  # mass at the pivot, turning
+        masses[:, topo.joint_names.index(pivot)] += bodies.sleeve_mass[:, s]
+        w = motion.link_angular_velocity[..., topo.link_names.index(bar)]
+        total += 0.5 * bodies.sleeve_inertia[:, s][:, None] * w * w
     for k in range(len(topo.joint_names)):
         x, v = motion.joint_position[:, :, k], motion.joint_velocity[:, :, k]
         total += masses[:, k][:, None] * (0.5 * np.sum(v * v, -1) - np.sum(x * g, -1))
@@ -248,3 +288,114 @@ def test_dyad_sines_of_a_four_bar_reach_the_exact_minimum(linkage):
     # Never below the exact minimum; the sampled minimum is within a step of it.
     assert sines.min() >= exact - 1e-12
     assert sines.min() - exact < 1e-3 + 2e-5 / max(exact, 1e-3)
+
+
+def _inverted_slider_crank(d, a, offset=0.0, length=None, speed=7.0, samples=721):
+    """Crank A→B (a) about A = (0, 0), RPR lever about O = (d, 0) through the block at B."""
+    dist_max = math.sqrt((d + a) ** 2 - offset**2)
+    mech = {"type": "linkage", "ground": {"A": [0.0, 0.0], "O": [d, 0.0]},
+            "input": {"link": "crank", "pivot": "A", "tip": "B", "length": a},
+            "dyads": [{"kind": "RPR", "links": ["lever", "block"], "joints": ["O", "T", "B"],
+                       "lengths": [length or 1.2 * dist_max], "offset": offset}]}
+    times = np.linspace(0.0, 2 * np.pi / speed, samples)[None]
+    motion = kin.input_motion(times, np.array([speed]), np.array([0.0]))
+    return mech, dyads.linkage([describe(load_scene({**RIGID, "mechanism": mech})["mechanism"])],
+                               motion)
+
+
+@pytest.mark.parametrize("d, a", [(0.25, 0.1), (0.1, 0.25)])
+def test_rpr_inverted_slider_crank_matches_the_textbook_closed_form(d, a):
+    """The centred inverted slider-crank (crank shaper for a < d, Whitworth's rotating lever
+    for a > d): with B − O = (a cos θ2 − d, a sin θ2), the lever's angle is
+    θ4 = atan2(a sin θ2, a cos θ2 − d), the block's distance from O b² = a² + d² − 2ad cos θ2,
+    and differentiating tan θ4 at constant crank speed ω2,
+    ω4 = ω2 a (a − d cos θ2)/b², α4 = ω2² a d (d² − a²) sin θ2 / b⁴, ḃ = ω2 a d sin θ2 / b."""
+    w2 = 7.0
+    _, r = _inverted_slider_crank(d, a, speed=w2)
+    th2 = r.link_angle[0, :, 0]
+    b2 = a * a + d * d - 2 * a * d * np.cos(th2)
+    th4 = np.arctan2(a * np.sin(th2), a * np.cos(th2) - d)
+    lever = r.link_angle[0, :, 1]
+    assert np.abs(np.angle(np.exp(1j * (lever - th4)))).max() < 1e-14
+    s, ds, _ = (x[0] for x in r.slide["block"])
+    assert np.abs(s - np.sqrt(b2)).max() < 1e-15
+    assert np.abs(ds - w2 * a * d * np.sin(th2) / np.sqrt(b2)).max() < 1e-14
+    w4 = w2 * a * (a - d * np.cos(th2)) / b2
+    assert np.abs(r.link_angular_velocity[0, :, 1] - w4).max() < 1e-13 * np.abs(w4).max()
+    al4 = w2**2 * a * d * (d * d - a * a) * np.sin(th2) / b2**2
+    assert np.abs(r.link_angular_acceleration[0, :, 1] - al4).max() < 1e-12 * np.abs(al4).max()
+
+
+def test_rpr_crank_shaper_quick_return():
+    """The crank shaper's lever stops where it is tangent to the crank circle (OB ⟂ AB,
+    cos θ2 = a/d), its swing there ±asin(a/d) about the line of centres, and the crank turns
+    2 arccos(a/d) on one stroke and 2π − 2 arccos(a/d) on the other: the time ratio of the
+    quick return."""
+    d, a = 0.25, 0.1
+    stop = math.acos(a / d)
+    mech, _ = _inverted_slider_crank(d, a)
+    motion = kin.input_motion(np.array([[0.0, stop / 7.0, (2 * np.pi - stop) / 7.0]]),
+                              np.array([7.0]), np.array([0.0]))
+    r = dyads.linkage([describe(load_scene({**RIGID, "mechanism": mech})["mechanism"])], motion)
+    assert np.abs(r.link_angular_velocity[0, 1:, 1]).max() < 1e-15
+    swing = np.angle(np.exp(1j * (r.link_angle[0, 1:, 1] - math.pi)))  # from the line O→A
+    assert np.allclose(swing, [-math.asin(a / d), math.asin(a / d)], rtol=0, atol=1e-15)
+    # Between the stops the lever turns one way only: sampled on a fine grid.
+    _, fine = _inverted_slider_crank(d, a, samples=36001)
+    th2 = fine.link_angle[0, :, 0]
+    forward = fine.link_angular_velocity[0, :, 1] > 0  # ω4 ∝ a − d cos θ2
+    inside = (th2 > stop + 1e-3) & (th2 < 2 * np.pi - stop - 1e-3)
+    outside = (th2 < stop - 1e-3) | (th2 > 2 * np.pi - stop + 1e-3)
+    assert forward[inside].all() and not forward[outside].any()
+    ratio = (2 * np.pi - 2 * stop) / (2 * stop)
+    assert inside.sum() / outside.sum() == pytest.approx(ratio, rel=2e-3)
+
+
+@given(d=st.floats(0.1, 0.6), crank=st.floats(0.05, 0.9), offset=st.floats(-0.9, 0.9),
+       extra=st.floats(1.0, 2.0), phase=st.floats(0.0, 1.0))
+@settings(max_examples=40, deadline=None)
+def test_rpr_closure_derivatives_and_power_balance(d, crank, offset, extra, phase):
+    """Any assemblable inverted slider-crank (crank a = crank·d, |offset| a fraction of the
+    smallest |OB| = d − a): Q − P = s e + offset e⊥ to round-off, rates and accelerations
+    against finite differences, and input power = d(T + V)/dt with the block's mass and
+    inertia and gravity."""
+    a = crank * d
+    e = offset * (d - a)
+    length = extra * math.sqrt((d + a) ** 2 - e * e)
+    mech = {"type": "linkage", "ground": {"A": [0.0, 0.0], "O": [d, 0.0]},
+            "input": {"link": "crank", "pivot": "A", "tip": "B", "length": a},
+            "dyads": [{"kind": "RPR", "links": ["lever", "block"], "joints": ["O", "T", "B"],
+                       "lengths": [length], "offset": e, "sleeve_mass": 0.3,
+                       "sleeve_inertia": 1e-3}]}
+    scene = _scene(mech)
+    speed = 100.0
+    dt = 1e-4 / speed
+    times = (phase * 2 * np.pi / speed + dt * np.arange(-4, 5))[None]
+    batch, r = _motion(scene, times)
+    check_derivatives(r, dt, speed, 1e-6)
+    th = r.link_angle[0, :, 1]
+    P, Q = r.joint_position[0, :, 1], r.joint_position[0, :, 3]
+    s = r.slide["block"][0][0]
+    closure = Q - P - s[:, None] * np.stack([np.cos(th), np.sin(th)], -1) \
+        - e * np.stack([-np.sin(th), np.cos(th)], -1)
+    assert np.abs(closure).max() < 1e-15 * 4
+    forces = inverse_dynamics(r, batch.bodies, batch.gravity)
+    power = forces.input_torque * r.link_angular_velocity[..., 0]
+    rate = kinetic_energy_rate(r, batch.bodies, batch.gravity)
+    assert np.abs(power - rate).max() < 1e-9 * (np.abs(rate).max() + np.abs(power).max())
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+def test_transmission_from_positions_is_the_rigid_motions(name):
+    """The near_singular check's measures (positions only, the assembly check's placement,
+    ced.problem.linkage.transmission) equal dyad_sines of the tracked rigid motion."""
+    from ced.problem.linkage import transmission
+
+    scene = _scene(MECHANISMS[name])
+    batch = make_batch([scene])
+    motion = batch.rigid_motion(np.linspace(0.0, 2 * np.pi / batch.speed[0], 721)[None])
+    description = describe(scene["mechanism"])
+    expected = dyads.dyad_sines(motion, description)[0]
+    got = transmission(description, motion.link_angle[0, :, 0])
+    assert got.shape == expected.shape
+    assert np.abs(got - expected).max() < 1e-12

@@ -146,3 +146,51 @@ def test_parallelogram_through_change_point_stays_finite():
     power = res.input_torque[0] * motion.link_angular_velocity[0, :, 0]
     rate = kinetic_energy_rate(motion, bodies, GRAVITY)[0]
     assert np.abs(power - rate)[regular].max() < 1e-6 * np.abs(rate).max()
+
+
+def _cross(r, f):
+    return r[..., 0] * f[..., 1] - r[..., 1] * f[..., 0]
+
+
+def test_rpr_sleeve_and_guide_bar_newton_euler():
+    """Whitworth's shaper (crank, RPR lever and block, RRP ram): the block turns about B with
+    the lever, so Σ F = m_s (a_B − g) with the crank's pin force at B and the lever's normal
+    force N e⊥ (no force along the frictionless slide), and Σ M_B = J_s α: the couple alone
+    (N acts on the line through B). The lever: pin O, −N e⊥ at the block's point
+    M = O + s e, −C and the rod's pin at C, against m a_G and I α about G."""
+    from ced.problem.scene import load_scene
+    from ced.response.batch import make_batch
+    from tests.rigid.test_dyads import RIGID, SHAPER
+
+    scene = load_scene({**RIGID, "mechanism": SHAPER, "gravity": list(GRAVITY),
+                        "effects": ["inertia", "gravity"], "point_masses": {"C": 0.2}})
+    batch = make_batch([scene])
+    motion = batch.rigid_motion()
+    res = inverse_dynamics(motion, batch.bodies, batch.gravity)
+    topo = motion.topology
+    assert topo.sleeves == {"block": ("B", "lever")}
+    j = {name: k for k, name in enumerate(topo.joint_names)}
+    F, X, acc = res.joint_force[0], motion.joint_position[0], motion.joint_acceleration[0]
+    i = topo.link_names.index("lever")
+    th, al = motion.link_angle[0, :, i], motion.link_angular_acceleration[0, :, i]
+    e = np.stack([np.cos(th), np.sin(th)], -1)
+    n = np.stack([-e[:, 1], e[:, 0]], -1)
+    N, C = res.sleeve_force[0, :, 0, 0], res.sleeve_force[0, :, 0, 1]
+    m_s, J_s = batch.bodies.sleeve_mass[0, 0], batch.bodies.sleeve_inertia[0, 0]
+    assert (m_s, J_s) == (0.4, 3e-4)
+    scale = np.abs(F).max()
+    # The block.
+    residual = F[:, j["B"]] + N[:, None] * n - m_s * (acc[:, j["B"]] - GRAVITY)
+    assert np.abs(residual).max() < 1e-10 * scale
+    assert np.abs(C - J_s * al).max() < 1e-10 * np.abs(C).max()
+    # The lever: C joins lever (first) and rod (second), so the rod's pin pulls it with −F_C.
+    m, I = batch.bodies.mass[0, i], batch.bodies.inertia[0, i]
+    G = motion.link_point("lever", batch.bodies.centre[0, i, 0])[0]
+    aG = motion.link_point("lever", batch.bodies.centre[0, i, 0], order=2)[0]
+    assert np.allclose(batch.bodies.centre[0, i], [0.225, 0.0])
+    M = X[:, j["O"]] + motion.slide["block"][0][0][:, None] * e
+    forces = [(X[:, j["O"]], F[:, j["O"]]), (M, -N[:, None] * n), (X[:, j["C"]], -F[:, j["C"]])]
+    total = sum(f for _, f in forces)
+    assert np.abs(total - m * (aG - GRAVITY)).max() < 1e-10 * scale
+    moment = sum(_cross(x - G, f) for x, f in forces) - C
+    assert np.abs(moment - I * al).max() < 1e-10 * scale * 0.45
