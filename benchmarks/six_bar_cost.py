@@ -6,11 +6,16 @@ periodic start, the scene's default effects and Euler–Bernoulli beams; the ref
 with a flexible coupler and rocker, and the Watt II of the tests with its three flexible
 binary links (coupler, coupler2, rocker2; crank rigid, the ternary rocker rigid). The
 four-bar is also run with more elements so that both models have the same number of elastic
-DOFs (the dense per-step algebra grows faster than linearly in it). Each time is the fastest
-of ``REPEATS`` runs (a loaded machine only slows a run down). Results go to
+DOFs, the size of the step system (the dense per-step algebra grows faster than linearly in
+it).
+
+The machine may be shared: the batches are run in ``ROUNDS`` interleaved rounds (four-bar,
+Watt II, four-bar of equal DOFs, then again), each batch's time is its fastest round (load
+only slows a run down), and the Watt II / equal-DOF four-bar ratio is also given round by
+round (the two ran seconds apart), with the load average before and after. Results go to
 ``benchmarks/six_bar_cost.json``.
 
-Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about a minute).
+Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about two minutes).
 """
 from __future__ import annotations
 
@@ -29,7 +34,7 @@ from ced.response.model import build_model  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402
 
 BATCH = 64
-REPEATS = 3
+ROUNDS = 5
 STEPS = 256
 FOUR_BAR = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
 WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
@@ -52,20 +57,32 @@ def scenes(mechanism, elements, links):
 
 
 def main() -> None:
-    out = {}
-    for name, (mechanism, elements, links) in CASES.items():
-        batch = scenes(mechanism, elements, links)
-        ny = build_model(make_batch([load_scene(s) for s in batch])).layout.ny
+    batches = {name: scenes(*case) for name, case in CASES.items()}
+    sizes = {}
+    for name, batch in batches.items():
+        layout = build_model(make_batch([load_scene(s) for s in batch[:2]])).layout
+        sizes[name] = {"elastic_dofs": layout.ny,
+                       "joint_coordinates": len(layout.free_coordinates),
+                       "interior_dofs": len(layout.interior_dofs), "nz": layout.nz}
         simulate(batch[:1])  # warm-up (compiled kernels, imports)
-        best = min(_timed(batch) for _ in range(REPEATS))
-        out[name] = {"elastic_dofs": ny, "seconds": best,
+    load_before = [round(x, 2) for x in os.getloadavg()]
+    rounds = [{name: _timed(batch) for name, batch in batches.items()} for _ in range(ROUNDS)]
+    out = {}
+    for name in batches:
+        best = min(r[name] for r in rounds)
+        ny = sizes[name]["elastic_dofs"]
+        out[name] = {**sizes[name], "seconds": best,
                      "seconds_per_case_step": best / BATCH / STEPS,
                      "microseconds_per_case_step_dof": 1e6 * best / BATCH / STEPS / ny}
         print(name, out[name], flush=True)
     out["ratio_watt_ii_to_four_bar_same_dofs"] = (
         out["watt_ii"]["seconds"] / out["four_bar_same_dofs"]["seconds"])
-    out["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    out["machine_note"] = f"{os.cpu_count()} cores; fastest of {REPEATS} runs"
+    out["ratio_by_round"] = [round(r["watt_ii"] / r["four_bar_same_dofs"], 3) for r in rounds]
+    out["load_average"] = {"before": load_before,
+                           "after": [round(x, 2) for x in os.getloadavg()]}
+    out["machine_note"] = (f"{os.cpu_count()} cores; fastest of {ROUNDS} interleaved rounds")
+    print("ratio", round(out["ratio_watt_ii_to_four_bar_same_dofs"], 3), "by round",
+          out["ratio_by_round"], "load", out["load_average"], flush=True)
     Path(__file__).with_suffix(".json").write_text(json.dumps(out, indent=2) + "\n")
 
 

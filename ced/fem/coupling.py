@@ -318,17 +318,18 @@ def projection(
     rot = {n: jets.rotation(link_angle[..., i], link_velocity[..., i], link_acceleration[..., i])
            for i, n in enumerate(names)}
     frames = _frame_jets(layout, rot, shape, guide_angle)
-    coords = list(layout.coordinate_kind)
+    # Only the free and owned coordinates: a zero one contributes nothing, a joint at a point
+    # has none (its rows follow from its link's, below).
+    coords = [key for key, kind in layout.coordinate_kind.items() if kind in ("free", "own")]
     col = {key: i for i, key in enumerate(coords)}
     nx = len(coords)
 
     # U = H x: joint translations from host-frame coordinates, (3, ..., 2·joints, nx).
     H = np.zeros((3,) + shape + (2 * len(topo.joints), nx))
     for k, j in enumerate(topo.joints):
-        if j in topo.points:
-            continue
-        H[..., 2 * k : 2 * k + 2, col[(j, 0)]] = frames[j][..., :, 0]
-        H[..., 2 * k : 2 * k + 2, col[(j, 1)]] = frames[j][..., :, 1]
+        for axis in (0, 1):
+            if (j, axis) in col:
+                H[..., 2 * k : 2 * k + 2, col[(j, axis)]] = frames[j][..., :, axis]
     if topo.points:
         _point_rows(layout, H, rot, lengths, points)
 

@@ -492,16 +492,6 @@ def four_bar_loops(mech: Mapping) -> list[tuple[float, float, float, float]]:
 ASSEMBLY_SAMPLES = 3601
 
 
-def _in_frame(origin, e, at):
-    """Points ``at`` (x, y) of a frame with origin (n, 2) and unit x axis e (n, 2): (n, 2)."""
-    import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
-
-    out = np.empty(e.shape)
-    out[..., 0] = origin[..., 0] + at[0] * e[..., 0] - at[1] * e[..., 1]
-    out[..., 1] = origin[..., 1] + at[0] * e[..., 1] + at[1] * e[..., 0]
-    return out
-
-
 def assembly_error(description: Mapping, angles) -> str | None:
     """Why a dyad description cannot be assembled at some input angle, or None.
 
@@ -571,29 +561,28 @@ def _placed(description: Mapping, angles):
     """Place the dyads in order at the input ``angles`` (n,): yield, per dyad, (index, dyad,
     why it cannot be assembled or None, its transmission measure (n,) or None) and stop at
     the first that cannot. Each RRR takes its ``branch`` at every angle (a change point is
-    not tracked through: its sine vanishes there anyway)."""
+    not tracked through: its sine vanishes there anyway).
+
+    Points are complex numbers x + iy and each placed link's frame is its first joint and
+    the unit complex number e along it, so that a point (x, y) of the link is
+    origin + (x + iy) e: no angles, no trigonometry past the input's."""
     import numpy as np  # lazy, as in the scene parser: only the assembly check needs it
 
     inp = description["input"]
-    known = {name: np.broadcast_to(np.asarray(xy, float), angles.shape + (2,))
-             for name, xy in description["ground"].items()}
-    # Each placed link's frame: its first joint and the unit vector along it (n, 2); no
-    # angles, so no trigonometry past the input's.
-    frame = {inp["link"]: (known[inp["pivot"]],
-                           np.stack([np.cos(angles), np.sin(angles)], axis=-1))}
+    known = {name: complex(*xy) for name, xy in description["ground"].items()}
+    frame = {inp["link"]: (known[inp["pivot"]], np.exp(1j * angles))}
+    points = {name: (point["link"], complex(*point["at"]))
+              for name, point in description.get("points", {}).items()}
 
     ends = {inp["link"]: inp["tip"]}
     ends.update({d["links"][0]: d["joints"][1] for d in description["dyads"]})
 
     def place(link, length):
         origin, e = frame[link]
-        known.setdefault(ends[link], _in_frame(origin, e, (length, 0.0)))
-        for name, point in description.get("points", {}).items():
-            if point["link"] == link:
-                known[name] = _in_frame(origin, e, point["at"])
-
-    def left(v):  # v turned a quarter turn counter-clockwise
-        return np.stack([-v[..., 1], v[..., 0]], axis=-1)
+        known.setdefault(ends[link], origin + length * e)
+        for name, (host, at) in points.items():
+            if host == link:
+                known[name] = origin + at * e
 
     ends.update({d["links"][1]: d["joints"][1] for d in description["dyads"]})
     place(inp["link"], inp["length"])
@@ -606,7 +595,7 @@ def _placed(description: Mapping, angles):
             l2 = dyad["lengths"][1]
             Q = known[dyad["joints"][2]]
             d = Q - P
-            dist = np.hypot(d[..., 0], d[..., 1])
+            dist = np.abs(d)
             bad = (dist > (l1 + l2) * (1 + rtol)) | (dist < abs(l1 - l2) * (1 - rtol))
             if bad.any():
                 k = int(np.argmax(bad))
@@ -618,9 +607,7 @@ def _placed(description: Mapping, angles):
             # M on the circles about P (l1) and Q (l2): a along P→Q, ±h across it (left for
             # the open branch).
             a = np.clip((l1 * l1 - l2 * l2 + dist * dist) / (2 * dist), -l1, l1)
-            h = sign * np.sqrt(l1 * l1 - a * a)
-            u = d / dist[..., None]
-            M = P + a[..., None] * u + h[..., None] * left(u)
+            M = P + (a + 1j * sign * np.sqrt(l1 * l1 - a * a)) * (d / dist)
             frame[dyad["links"][0]] = (P, (M - P) / l1)
             frame[dyad["links"][1]] = (Q, (M - Q) / l2)
             place(dyad["links"][0], l1)
@@ -628,10 +615,9 @@ def _placed(description: Mapping, angles):
             cos_mu = np.clip((l1 * l1 + l2 * l2 - dist * dist) / (2 * l1 * l2), -1, 1)
             yield i, dyad, None, np.sqrt(1.0 - cos_mu * cos_mu)
         elif dyad["kind"] == "RRP":
-            phi = dyad["guide"]["angle"]
-            along = np.array([math.cos(phi), math.sin(phi)])
-            normal = np.array([-math.sin(phi), math.cos(phi)])
-            h = (P - np.asarray(dyad["guide"]["point"])) @ normal
+            along = complex(math.cos(dyad["guide"]["angle"]), math.sin(dyad["guide"]["angle"]))
+            # h = n·(P − G0): the imaginary part in the guide's frame.
+            h = ((P - complex(*dyad["guide"]["point"])) / along).imag
             bad = np.abs(h) >= l1 * (1 - rtol)
             if bad.any():
                 k = int(np.argmax(bad))
@@ -640,10 +626,9 @@ def _placed(description: Mapping, angles):
                                 f"{dyad['joints'][0]} is {abs(h[k]):.4g} m from it, the link "
                                 f"{l1:g} m long"), None
                 return
-            # n·(M − P) = −h with M − P = l1 e1: e1 = ±√(1 − (h/l1)²) along − (h/l1) normal.
+            # n·(M − P) = −h with M − P = l1 e1: e1 = (±√(1 − (h/l1)²) − i h/l1) along.
             cosine = np.sqrt(1 - (h / l1) ** 2)
-            e1 = (sign * cosine)[..., None] * along - (h / l1)[..., None] * normal
-            frame[dyad["links"][0]] = (P, e1)
+            frame[dyad["links"][0]] = (P, (sign * cosine - 1j * h / l1) * along)
             place(dyad["links"][0], l1)
             yield i, dyad, None, cosine
         else:
@@ -657,15 +642,15 @@ def _placed(description: Mapping, angles):
 
 
 def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):
-    """(message or None, the bar's unit vector (n, 2), slide (n,) m) of an RPR dyad whose
-    pivots are at P and Q."""
+    """(message or None, the bar's unit vector as complex numbers (n,), slide (n,) m) of an
+    RPR dyad whose pivots are at P and Q (complex, (n,))."""
     import numpy as np
 
     (guide, sleeve), (p, _, q) = dyad["links"], dyad["joints"]
     length, offset = dyad["lengths"][0], dyad["offset"]
     d = Q - P
-    dist = np.hypot(d[..., 0], d[..., 1])
-    # Q − P = s e + offset e⊥ with e along the bar: s = √(|PQ|² − offset²) > 0, s ≤ L.
+    dist = np.abs(d)
+    # Q − P = (s + i offset) e with e along the bar: s = √(|PQ|² − offset²) > 0, s ≤ L.
     slide = np.sqrt(np.clip(dist * dist - offset * offset, 0.0, None))
     bad = slide <= rtol * length
     if bad.any():
@@ -680,7 +665,4 @@ def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):
         return (f"the sleeve {sleeve} runs off the end of the guide bar {guide} at input angle "
                 f"{angles[k]:.4g} rad: it is {slide[k]:.4g} m along the bar from {p}, the bar "
                 f"{length:g} m long (lengths[0])"), None, None
-    # e = (s (Q − P) − offset (Q − P)⊥)/|PQ|², the bar's unit vector.
-    across = np.stack([-d[..., 1], d[..., 0]], axis=-1)
-    e = (slide[..., None] * d - offset * across) / (dist * dist)[..., None]
-    return None, e, slide
+    return None, d / (slide + 1j * offset), slide

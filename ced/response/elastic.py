@@ -18,7 +18,6 @@ from ..problem.errors import SceneError
 from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
 from ..problem.status import STATUS_FLAGS
-from ..rigid.kinematics import input_motion
 from .batch import Batch
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import from_independent, integrator_for, stability_limit, start
@@ -54,9 +53,11 @@ def _near_singular(batch: Batch) -> np.ndarray:
                              batch.initial_angle, batch.amplitude)
     if batch.mechanism_type in ("slider_crank", "single_link"):
         return np.zeros(batch.size, bool)
-    period = 2.0 * math.pi / batch.speed
-    times = period[:, None] * np.linspace(0.0, 1.0, ASSEMBLY_SAMPLES)[None, :]
-    angle = input_motion(times, batch.speed, batch.initial_angle, batch.amplitude).angle
+    # The input's angle over one period, Ωt from 0 to 2π (kinematics.input_motion's).
+    phase = np.linspace(0.0, 2.0 * math.pi, ASSEMBLY_SAMPLES)[None, :]
+    rocks = np.isfinite(batch.amplitude)[:, None]
+    amplitude = np.where(rocks, batch.amplitude[:, None], 0.0)
+    angle = batch.initial_angle[:, None] + np.where(rocks, amplitude * np.sin(phase), phase)
     worst = np.array([transmission(describe(scene["mechanism"]), angle[c]).min()
                       for c, scene in enumerate(batch.scenes)])
     return worst < NEAR_SINGULAR_SIN
