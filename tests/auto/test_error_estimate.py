@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ced.auto.error_estimate import (MIN_COARSENING, SAFETY, algorithmic_damping, coarser_steps,
+from ced.auto.error_estimate import (MIN_COARSENING, SAFETY, SAFETY_PERIODIC,
+                                     algorithmic_damping, coarser_steps,
                                      combine, companions)
 from ced.problem.scene import load_scene
 from ced.simulation.simulate import simulate
@@ -25,8 +26,8 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     assert companion.scene["discretization"]["elements_per_link"] == 4
     assert companion.scene["time"]["steps_per_revolution"] == 128
     assert companion.scene["modal"] is None
-    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY times that.
-    assert companion.factor == pytest.approx(SAFETY / 3.0)
+    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY_PERIODIC times that (a periodic start).
+    assert companion.factor == pytest.approx(SAFETY_PERIODIC / 3.0)
 
 
 @pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.85), (256, 1.5)])
@@ -34,7 +35,8 @@ def test_steps_are_refined_where_coarsening_leaves_the_asymptotic_range(steps, o
     # Fewer than 64 steps in the companion, or ω₁h above 1 there after coarsening by at least
     # MIN_COARSENING while below π here.
     assert coarser_steps(steps, 1, omega1_h) is None
-    space, time = companions(load_scene(_scene(8, steps)), omega1_h)
+    # From the undeformed start the first mode rings: its ω₁h counts.
+    space, time = companions(load_scene(_scene(8, steps, start="undeformed")), omega1_h)
     assert space.scene["discretization"]["elements_per_link"] == 4
     assert space.scene["time"]["steps_per_revolution"] == steps
     assert time.scene["discretization"]["elements_per_link"] == 8
@@ -53,7 +55,7 @@ def test_coarsening_by_less_than_two_keeps_the_first_mode_resolved(omega1_h):
     steps = coarser_steps(256, 1, omega1_h)
     assert 256 / 2 < steps <= 256 / MIN_COARSENING
     assert omega1_h * 256 / steps <= 1.0 + 1e-12  # the companion's ω₁h
-    (companion,) = companions(load_scene(_scene(8, 256)), omega1_h)
+    (companion,) = companions(load_scene(_scene(8, 256, start="undeformed")), omega1_h)
     assert companion.scene["time"]["steps_per_revolution"] == steps
     # The mesh coarsened so that the space error grows about as the time error does, and
     # Richardson's factor taken from the smaller growth.
@@ -62,6 +64,26 @@ def test_coarsening_by_less_than_two_keeps_the_first_mode_resolved(omega1_h):
     growth = min((8 / ne) ** 2, growth_t)
     assert abs(np.log((8 / ne) ** 2 / growth_t)) < 0.4
     assert companion.factor == pytest.approx(SAFETY / (growth - 1.0))
+
+
+@pytest.mark.parametrize("omega1_h", [0.85, 1.5, 2.5])
+def test_periodic_start_halves_whatever_the_first_mode(omega1_h):
+    # No free vibration in the periodic steady state: generalized-α (no damping of the first
+    # mode at the companion's step) halves the steps even where ω₁h would forbid it.
+    (companion,) = companions(load_scene(_scene(8, 256)), omega1_h)
+    assert companion.scene["time"]["steps_per_revolution"] == 128
+    assert companion.scene["discretization"]["elements_per_link"] == 4
+    assert companion.factor == pytest.approx(SAFETY_PERIODIC / 3.0)
+
+
+@pytest.mark.parametrize("integrator", ["houbolt", "hht"])
+def test_periodic_start_keeps_the_rule_for_a_dissipative_scheme(integrator):
+    # Houbolt and HHT damp the first mode at ω₁h = 3 (the companion's): two companions.
+    scene = load_scene(_scene(8, 256, integrator=integrator))
+    assert algorithmic_damping(scene["time"], 3.0) > 0.01
+    space, time = companions(scene, omega1_h=1.5)
+    assert space.scene["time"]["steps_per_revolution"] == 256
+    assert time.scene["time"]["steps_per_revolution"] > 256
 
 
 def test_coarser_steps_span_whole_revolutions():
@@ -74,9 +96,9 @@ def test_coarser_steps_span_whole_revolutions():
 def test_small_meshes_are_refined_not_coarsened(elements):
     space, time = companions(load_scene(_scene(elements, 256)), omega1_h=0.2)
     assert space.scene["discretization"]["elements_per_link"] == 2 * elements
-    assert space.factor == pytest.approx(SAFETY / (1.0 - 1.0 / 4.0))
+    assert space.factor == pytest.approx(SAFETY_PERIODIC / (1.0 - 1.0 / 4.0))
     assert time.scene["time"]["steps_per_revolution"] == 128
-    assert time.factor == pytest.approx(SAFETY / 3.0)
+    assert time.factor == pytest.approx(SAFETY_PERIODIC / 3.0)
 
 
 
@@ -114,7 +136,7 @@ def test_dissipative_scheme_refines_until_the_first_mode_is_resolved():
     # Houbolt damps ω₁h = 3.2 heavily; its companion goes to 8× the steps (ω₁h = 0.4).
     assert algorithmic_damping(hb["time"], 1.6) > 0.1 > algorithmic_damping(ga["time"], 1.6)
     assert companions(hb, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 512
-    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(SAFETY / (1.0 - 1.0 / 64.0))
+    assert companions(hb, omega1_h=3.2)[1].factor == pytest.approx(SAFETY_PERIODIC / (1.0 - 1.0 / 64.0))
     assert companions(ga, omega1_h=3.2)[1].scene["time"]["steps_per_revolution"] == 128
 
 
