@@ -159,7 +159,9 @@ def ladder_errors(peaks, order: float = TIME_ORDER) -> np.ndarray:
     error[-1] = max(abs(sigma[-1] - sigma[-2]) / ratio,
                     abs(sigma[-2] - sigma[-3]) / (ratio * 2.0**order))
     error = np.maximum.accumulate(error[::-1])[::-1]
-    return error / (abs(limit) if limit else 1.0)
+    if limit == 0.0:  # extrapolated to zero: a relative error is unbounded unless there is none
+        return np.where(error == 0.0, 0.0, np.inf)
+    return error / abs(limit)
 
 
 def interpolate(levels, errors, at, order: float = TIME_ORDER,
@@ -196,7 +198,7 @@ def interpolate(levels, errors, at, order: float = TIME_ORDER,
         local = np.log(e_coarse / e_fine) / np.log(levels[finer] / levels[finer - 1])
         power = e_fine * (levels[finer] / at) ** local
         asymptotic = e_coarse <= steepest * e_fine
-    between = np.where(asymptotic & (e_fine > 0), power, e_coarse)
+    between = np.where(asymptotic & (e_fine > 0) & np.isfinite(e_fine), power, e_coarse)
     beyond = errors[-1] * (levels[-1] / at) ** order
     out = np.where(at >= levels[-1], beyond, np.where(at == levels[finer], e_fine, between))
     return np.where(at < levels[0], np.inf, out)

@@ -15,18 +15,21 @@ fourfold; then a fine solution σ and its companion σ_c give Richardson's asymp
 calibrated on the validation sets so that it is an upper bound where the asymptotic constants
 are only approached: :data:`SAFETY_PERIODIC` = 2.5 for a periodic start (convergence study,
 421 settings: true error ≤ estimate on 97.6 %, 95 % inside [estimate/10, estimate]; 168 hard
-cases of the default study, 0.8 < ω₁h < π: 93 %), :data:`SAFETY` = 4 from a start transient,
-which has no validation set of its own (on the benchmark sweep it is *not* an upper bound at
-coarse steps; docs/accuracy.md).
+cases of the default study, 0.8 < ω₁h < π: 93 %), :data:`SAFETY` = 4 from a start transient
+(docs/accuracy.md).
 
-Richardson's argument needs both solutions in the asymptotic range. Halving the step leaves
-it when the companion would have fewer than :data:`MIN_COMPANION_STEPS` steps per revolution
-(the crank harmonics that carry the load are then under-resolved) or, for a start transient or
-a scheme that damps the first mode, when its ω₁h would cross 1 while the scene's is below π
-(the first mode neither resolved nor quasi-static; a strongly dissipative scheme such as
-Houbolt is far from its limit there). A periodic steady state holds no free vibration at ω₁,
-so a non-dissipative scheme halves it whatever ω₁h (:func:`_forced_only`). The step is then coarsened
-by less than 2, as far as ω₁h may grow to 1 (at least by :data:`MIN_COARSENING`, the mesh
+Richardson's argument needs both solutions in the asymptotic range. From a start transient
+(``undeformed``, ``quasi_static``) every mode the start excites rings freely, and its phase
+error, (ωh)²/12 per period, accumulates over the run: a coarser companion is far from that
+range wherever the scene is near it (measured on the benchmark sweep, 20 speeds: the estimate
+from a halved companion was below the true error at 55–65 % of the speeds at 256 and 512
+steps per revolution). The steps are then always refined instead (:func:`_time_companion_finer`).
+From a periodic start, halving the step leaves it when the companion would have fewer than
+:data:`MIN_COMPANION_STEPS` steps per revolution (the crank harmonics that carry the load are
+then under-resolved) or, for a scheme that damps the first mode, when its ω₁h would cross 1
+while the scene's is below π (a strongly dissipative scheme such as Houbolt is far from its
+limit there); a non-dissipative scheme halves whatever ω₁h, since the steady state holds no
+free vibration at ω₁ (:func:`_forced_only`). The step is then coarsened by less than 2, as far as ω₁h may grow to 1 (at least by :data:`MIN_COARSENING`, the mesh
 coarsened to match: one companion still, cheaper than the scene's solution), and where even
 that is not possible the steps are doubled instead (:func:`coarser_steps`), at about three
 times the cost of the scene's solution; so is a mesh of four elements or fewer refined
@@ -195,8 +198,23 @@ def _refinement(time_cfg: dict, omega1_h: float) -> int:
     return factor
 
 
+def _time_companion_finer(time_cfg: dict) -> bool:
+    """Whether the time part of the error must come from a finer companion: from a start
+    transient, whose free vibrations accumulate phase error over the run.
+
+    Measured on the benchmark sweep (reference four-bar, undeformed start, two revolutions,
+    every 5th of its 100 speeds, against 16 elements at 16,384 steps per revolution): with
+    one coarser companion the estimate was an upper bound at 35–95 % of the speeds depending
+    on the setting (35 % at 8 elements and 512 steps, where the true error reaches 2.4 %);
+    with the steps doubled on the scene's mesh and the mesh coarsened at its steps, at 95–100 %
+    of them for every one of nine settings (4–16 elements, 256–2,048 steps), at about three
+    times the cost of the scene's solution.
+    """
+    return time_cfg["start"] != "periodic"
+
+
 def _forced_only(time_cfg: dict, omega1_h: float) -> bool:
-    """Whether halving the step may ignore the first mode's ω₁h: a periodic start whose scheme
+    """Whether halving the step of a periodic start may ignore the first mode's ω₁h: the scheme
     does not dissipate that mode at the companion's step.
 
     The periodic steady state holds only the input's harmonics, no free vibration at ω₁; each
@@ -209,23 +227,21 @@ def _forced_only(time_cfg: dict, omega1_h: float) -> bool:
     double-crank family) where the two companions of the rule are on 99 %, at about half their
     cost (docs/accuracy.md).
     """
-    if time_cfg["start"] != "periodic":
-        return False  # a start transient rings at ω₁: its phase must stay resolved
     return algorithmic_damping(time_cfg, min(2.0 * omega1_h, math.pi)) <= DAMPED
 
 
 def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
     """Companion discretizations of a normalized scene with an elastic formulation.
 
-    Normally one coarser companion: steps halved (or, from a start transient or with a scheme
+    From a periodic start, normally one coarser companion: steps halved (or, with a scheme
     that damps the first mode, coarsened by less where halving would leave the asymptotic
     range, :func:`coarser_steps` and :func:`_forced_only`), elements reduced so that the space
     error grows about as much as the time error (4× when halved). Then the difference to the
     companion is a known multiple of the scene's own error whatever the signs of the two
     parts, and no cancellation between them can hide in it; the smaller of the two growths
-    sets Richardson's factor, which keeps the estimate conservative when they differ. Where no
-    coarser step stays in the asymptotic range, or the mesh cannot be coarsened, two companions
-    instead: the mesh coarsened (or refined) at the scene's steps, and the steps coarsened
+    sets Richardson's factor, which keeps the estimate conservative when they differ. From a
+    start transient (:func:`_time_companion_finer`), where no coarser step stays in the
+    asymptotic range, or where the mesh cannot be coarsened, two companions instead: the mesh coarsened (or refined) at the scene's steps, and the steps coarsened
     where possible, else doubled (up to 8×, for a dissipative scheme that does not resolve
     ω₁, :func:`_refinement`) on the scene's mesh — about three times the cost of the scene's
     own solution; their two estimates are added. Modes per link are kept; the companions make
@@ -258,9 +274,10 @@ def companions(scene: dict, omega1_h: float = 0.0) -> list[Companion]:
         out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
         return out
 
-    safety = SAFETY_PERIODIC if time["start"] == "periodic" else SAFETY
-    coarse_steps = coarser_steps(spr, time["revolutions"],
-                                 0.0 if _forced_only(time, omega1_h) else omega1_h)
+    periodic = time["start"] == "periodic"
+    safety = SAFETY_PERIODIC if periodic else SAFETY
+    coarse_steps = None if _time_companion_finer(time) else coarser_steps(
+        spr, time["revolutions"], 0.0 if _forced_only(time, omega1_h) else omega1_h)
     time_growth = (spr / coarse_steps) ** TIME_ORDER if coarse_steps else 4.0
     coarse = _elements_for_growth(ne, order, time_growth)
     if coarse_steps and coarse is not None:

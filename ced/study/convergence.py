@@ -482,8 +482,9 @@ def auto_table(datasets: dict[str, "xr.Dataset"]) -> "pd.DataFrame":
 def estimate_validation(datasets: dict[str, "xr.Dataset"]) -> dict[str, float]:
     """How well ``error_estimate`` brackets the true error over every setting.
 
-    Returns ``within`` (share of settings with estimate/10 ≤ true ≤ estimate), ``min_ratio``
-    (smallest estimate/true) and ``settings`` (count). Settings whose true error is below ten
+    Returns ``upper_bound`` (share of settings with true ≤ estimate), ``within`` (share with
+    estimate/10 ≤ true ≤ estimate), ``min_ratio`` (smallest estimate/true) and ``settings``
+    (count). Settings whose true error is below ten
     times the reference's uncertainty are left out: their true error is not known well enough
     to judge an estimate by (the uncertainty is itself an estimate), and so is every setting of
     a family whose reference is uncertain by more than 1 % (the change point, whose peak
@@ -502,6 +503,7 @@ def estimate_validation(datasets: dict[str, "xr.Dataset"]) -> dict[str, float]:
         true.append(ds.error_peak_stress.values[keep])
     est, true = np.concatenate(est), np.concatenate(true)
     within = (true <= est) & (true >= est / 10.0)
-    return {"within": float(within.mean()) if len(est) else float("nan"),
+    return {"upper_bound": float((true <= est).mean()) if len(est) else float("nan"),
+            "within": float(within.mean()) if len(est) else float("nan"),
             "min_ratio": float((est / true).min()) if len(est) else float("nan"),
             "settings": int(len(est))}

@@ -284,7 +284,8 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
 
     The shaded band is [estimate/10, estimate]: an estimate that is safe (not below the true
     error) and not more than ten times pessimistic. Above the diagonal the estimate is
-    optimistic. The title gives the number of points inside the band, counted as
+    optimistic. The title gives the number of points inside the band and at or below the
+    diagonal (true ≤ estimate), counted as
     :func:`ced.study.convergence.estimate_validation` does: settings whose true error is below
     ``UNRESOLVED`` times the reference's uncertainty, or whose reference is uncertain by more
     than 1 % (not resolved), are drawn hollow and not counted.
@@ -299,7 +300,7 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     matplotlib.figure.Figure
     """
     fig, ax = plt.subplots(figsize=(5.6, 5.0), constrained_layout=True)
-    inside = total = 0
+    inside = total = bounded = 0
     xs_all = []
     for k, (family, ds) in enumerate(datasets.items()):
         est = np.abs(np.asarray(ds.error_estimate.values, float))
@@ -314,6 +315,7 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
                    edgecolor=f"C{k % 10}", zorder=3, gid=f"unresolved:{family}")
         inside += int(((true[resolved] <= est[resolved])
                        & (true[resolved] >= est[resolved] / 10.0)).sum())
+        bounded += int((true[resolved] <= est[resolved]).sum())
         total += int(resolved.sum())
         xs_all.append(est[ok])
         if "auto_error_estimate" in ds and "auto_error" in ds:
@@ -335,7 +337,8 @@ def estimate_figure(datasets: dict[str, xr.Dataset]) -> plt.Figure:
     ax.set_xlim(low, high)
     ax.set_xlabel("estimated relative error of peak stress (ced)")
     ax.set_ylabel("true relative error of peak stress (vs reference)")
-    share = f"{inside} of {total} in band" if total else "no settings"
+    share = (f"{inside} of {total} in band, {bounded} with true ≤ estimate" if total
+             else "no settings")
     ax.set_title(f"Error estimate against true error — {share}\n(stars: auto; hollow: true "
                  f"error below {UNRESOLVED:g}× the reference uncertainty, or a reference "
                  "uncertain by > 1 %: not counted)", fontsize=9)
@@ -365,10 +368,13 @@ def _validation_line(validation: dict) -> str:
     if {"within", "min_ratio", "settings"} <= set(validation):
         within, ratio = float(validation["within"]), float(validation["min_ratio"])
         share = f"{100 * within:.0f} %" if np.isfinite(within) else "—"
-        return (f"Error estimate: for {share} of the {int(validation['settings'])} settings "
-                f"whose true error of peak stress is resolved (above {UNRESOLVED:g}× the "
-                "reference's uncertainty, itself below 1 %), estimate/10 ≤ true error ≤ "
-                "estimate; the smallest "
+        bound = float(validation.get("upper_bound", np.nan))
+        upper = (f"the true error is at most the estimate for {100 * bound:.1f} % and "
+                 if np.isfinite(bound) else "")
+        return (f"Error estimate: of the {int(validation['settings'])} settings whose true "
+                f"error of peak stress is resolved (above {UNRESOLVED:g}× the reference's "
+                f"uncertainty, itself below 1 %), {upper}estimate/10 ≤ true error ≤ "
+                f"estimate for {share}; the smallest "
                 f"estimate/true ratio is {_cell(ratio)} (below 1: an optimistic estimate).")
     parts = [f"{key} = {_cell(value)}" for key, value in validation.items()]
     return ("Error estimate validation (true error of peak stress within [estimate/10, "

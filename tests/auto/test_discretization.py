@@ -21,6 +21,13 @@ def reference_raw(**changes) -> dict:
     return raw
 
 
+def test_ladder_errors_extrapolated_to_zero_are_unbounded():
+    assert ladder_errors([1.0, 2.0, 0.5])[-1] == np.inf
+    assert np.all(interpolate([32, 64, 128], ladder_errors([1.0, 2.0, 0.5]), [100, 256])
+                  == np.inf)
+    assert np.all(ladder_errors([0.0, 0.0, 0.0]) == 0.0)
+
+
 def test_ladder_errors_are_exact_for_second_order_convergence():
     h = 1.0 / (32 * 2.0 ** np.arange(5))
     peaks = 7.0 * (1.0 + 3.0 * h**2)
@@ -31,9 +38,12 @@ def test_ladder_errors_are_exact_for_second_order_convergence():
 @settings(max_examples=200, deadline=None)
 def test_ladder_errors_never_grow_under_refinement(peaks):
     errors = ladder_errors(peaks)
+    limit = peaks[-1] + (peaks[-1] - peaks[-2]) / 3.0
+    if limit == 0.0:  # e.g. [1, 2, 0.5]: no relative error can be credited
+        assert errors[-1] == np.inf
+        return
     assert np.all(np.diff(errors) <= 1e-15)
     # The last rung is never credited with less than its own Richardson correction.
-    limit = peaks[-1] + (peaks[-1] - peaks[-2]) / 3.0
     assert errors[-1] * abs(limit) >= abs(peaks[-1] - peaks[-2]) / 3.0 * (1 - 1e-12)
 
 

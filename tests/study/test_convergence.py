@@ -92,7 +92,8 @@ def test_validation_ignores_settings_below_the_reference_uncertainty():
                      "error_estimate": ("setting", [1.0, 2e-2, 1e-3]),
                      "reference_peak_stress": ((), 1.0, {"uncertainty": 1e-6})})
     check = estimate_validation({"x": ds})
-    assert check == {"within": 0.5, "min_ratio": pytest.approx(0.1), "settings": 2}
+    assert check == {"upper_bound": 0.5, "within": 0.5, "min_ratio": pytest.approx(0.1),
+                     "settings": 2}
 
 
 def test_convergence_dataset_passes_the_cf_checker(result, tmp_path):

@@ -179,7 +179,7 @@ def test_estimate_figure():
         assert n_points(by_gid(ax, f"auto:{family}")) == 2
         total += resolved
     # synthetic estimates are 3x the true error: all resolved ones inside [estimate/10, estimate]
-    assert f"{total} of {total} in band" in ax.get_title()
+    assert f"{total} of {total} in band, {total} with true ≤ estimate" in ax.get_title()
     fig.canvas.draw()
 
 
@@ -187,10 +187,12 @@ def test_accuracy_markdown_references_and_validation():
     datasets = {"crank_rocker": synthetic()}
     table = pd.DataFrame({"family": ["crank_rocker"] * 3, "target": ["10 %", "1 %", "0.1 %"],
                           "setting": ["a", "b", "c"], "ms_per_case": [0.1, 1.0, np.nan]})
-    text = accuracy_markdown(datasets, table, {"within": 0.9, "min_ratio": 1.5, "settings": 20})
+    text = accuracy_markdown(datasets, table, {"upper_bound": 0.95, "within": 0.9,
+                                               "min_ratio": 1.5, "settings": 20})
     assert text.startswith("# What accuracy costs in time")
     assert "| crank_rocker | 0.1 % | c | — |" in text
-    assert "for 90 % of the 20 settings" in text and "ratio is 1.5" in text
+    assert "of the 20 settings" in text and "ratio is 1.5" in text
+    assert "at most the estimate for 95.0 %" in text and "estimate for 90 %" in text
     numeric = table.assign(target=[0.1, 0.01, 0.001])  # ced.study.convergence.accuracy_table's
     assert "| crank_rocker | 0.1 % | c | — |" in accuracy_markdown(datasets, numeric, {})
     assert "| crank_rocker | 100 ± 0.02 % | 1 ± 0.03 % | 50 ± 0.001 % |" in text
@@ -214,7 +216,8 @@ def test_write_accuracy_summary(tmp_path):
     assert len(csv) == 2 * 3  # a row per (family, target 10 %, 1 %, 0.1 %)
     md = (tmp_path / "t" / "accuracy.md").read_text()
     assert "| slider_crank | 0.1 % | none in the sweep |" in md  # synthetic errors stop ~2e-3
-    assert "Error estimate: for 100 % of the" in md  # estimates are 3x the true error
+    # estimates are 3x the true error: every one an upper bound, inside the band
+    assert "at most the estimate for 100.0 % and" in md and "estimate for 100 %;" in md
     assert "## References" in md and "± 0.02 %" in md
     for png, svg in [*figures.values(), estimate]:
         assert (tmp_path / png).stat().st_size > 1000 and (tmp_path / svg).stat().st_size > 1000

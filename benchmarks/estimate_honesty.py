@@ -1,0 +1,66 @@
+"""Is ``error_estimate`` an upper bound from a start transient? (issue 14, point 4)
+
+The convergence study (``config/studies/convergence.yaml``) validates the estimate in the
+periodic steady state only. This checks it where free vibrations ring: the benchmark's sweep
+(reference flexible four-bar, undeformed start, two revolutions, no damping; every 5th of
+its 100 speeds), at settings from coarse to fine, against 16 elements at 16,384 steps per
+revolution (every FE DOF). For each setting: the largest true error of peak stress, the
+share of speeds whose true error is at most the estimate, and the median estimate / true.
+Results go to ``benchmarks/estimate_honesty.json``; docs/accuracy.md quotes them.
+
+Run ``.venv/bin/python benchmarks/estimate_honesty.py`` (about five minutes on 2 cores).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
+
+import numpy as np  # noqa: E402
+
+import sweep  # noqa: E402
+from ced.simulation.simulate import _case_peak, simulate  # noqa: E402
+
+SPEEDS = sweep.SPEEDS[::5]
+REFERENCE = (16, 0, 16384)
+#: (elements, modes per link (0: every FE DOF), steps per revolution).
+SETTINGS = [(4, 0, 256), (8, 0, 256), (8, 0, 512), (8, 0, 768), (8, 0, 1024), (6, 0, 1024),
+            (8, 8, 1024), (16, 0, 1024), (8, 0, 2048)]
+OUT = Path(__file__).with_name("estimate_honesty.json")
+
+
+def scenes(setting: tuple[int, int, int], estimate: bool) -> list[dict]:
+    elements, modes, steps = setting
+    return [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(speed)},
+             "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": estimate},
+             "discretization": {"elements_per_link": elements, "modes_per_link": modes},
+             "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "undeformed"}}
+            for speed in SPEEDS]
+
+
+def main() -> None:
+    reference = _case_peak(simulate(scenes(REFERENCE, False)).peak_stress.values)
+    rows = []
+    for setting in SETTINGS:
+        ds = simulate(scenes(setting, True))
+        true = np.abs(_case_peak(ds.peak_stress.values) / reference - 1.0)
+        estimate = ds.error_estimate.values
+        rows.append({"setting": list(setting), "max_true_error": float(true.max()),
+                     "upper_bound_share": float(np.mean(true <= estimate)),
+                     "median_estimate_over_true": float(np.median(estimate / true)),
+                     "max_estimate": float(estimate.max())})
+        print(f"{setting}: true ≤ {true.max():.2%}, estimate ≥ true at "
+              f"{rows[-1]['upper_bound_share']:.0%} of the speeds, median estimate/true "
+              f"{rows[-1]['median_estimate_over_true']:.1f}", flush=True)
+    OUT.write_text(json.dumps({
+        "problem": "reference flexible four-bar, undeformed start, 2 revolutions, "
+                   f"{len(SPEEDS)} speeds 90-110 rad/s; peak stress",
+        "reference": list(REFERENCE), "settings": rows,
+        "all_speeds_share": float(np.mean([r["upper_bound_share"] for r in rows]))},
+        indent=2) + "\n")
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()
