@@ -290,8 +290,13 @@ COST_STEP_PERIODIC = ((6, 3.49e-05), (12, 4.74e-05), (24, 0.000108), (48, 0.0004
                       (96, 0.00244))
 #: Modal analysis, s per case per modal angle (4 modes), (n, s).
 COST_MODAL_ANGLE = ((12, 4.33e-05), (48, 0.000331))
-#: Factor on a case's cost for its error estimate (the coarser or finer companion solution).
-COST_ERROR_ESTIMATE = 2.97
+#: Factor on a case's cost for its error estimate from a start transient (a coarser mesh and
+#: finer steps, ced.auto.error_estimate.companions); 8 elements reduced to 4 modes per link,
+#: 12 modal angles (re-measured 2026-11-25, after the companions changed).
+COST_ERROR_ESTIMATE = 2.16
+#: The same from a periodic start (one coarser companion; 1.33 over 1,000 cases of the
+#: default study).
+COST_ERROR_ESTIMATE_PERIODIC = 1.31
 
 
 def _interpolate(table: tuple, n: float) -> float:
@@ -311,7 +316,8 @@ def case_seconds(scene: dict) -> float:
     From the measured tables above: the rigid analysis per step; the elastic response per
     step at the model's elastic DOFs (:func:`elastic_dofs`), with the periodic start's extra
     cost over one revolution; the modal analysis per angle; times
-    :data:`COST_ERROR_ESTIMATE` when the case's error is estimated. An estimate within a
+    :data:`COST_ERROR_ESTIMATE` (:data:`COST_ERROR_ESTIMATE_PERIODIC` from a periodic start)
+    when the case's error is estimated. An estimate within a
     factor of about two: the machine's load and the scene's effects are not modelled.
 
     Parameters
@@ -346,5 +352,6 @@ def case_seconds(scene: dict) -> float:
     if modal:
         elastic += _interpolate(COST_MODAL_ANGLE, n) * modal["angles"]
     if scene["outputs"]["error_estimate"]:
-        elastic *= COST_ERROR_ESTIMATE
+        elastic *= (COST_ERROR_ESTIMATE_PERIODIC if time_["start"] == "periodic"
+                    else COST_ERROR_ESTIMATE)
     return seconds + elastic
