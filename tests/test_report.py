@@ -142,7 +142,8 @@ def test_figure_embedded(report, figure):
     html = report.read_text()
     start = html.find(f'"{figure}": {{')
     assert start >= 0, f"{figure} not in the report"
-    entry = html[start:html.find('"data_uri"', start) + 200000]
+    uri = html.find('"data_uri"', start)
+    entry = html[uri:html.find('",', uri + len('"data_uri": "')) + 1]  # the whole data URI
     match = re.search(r'"data_uri": "data:image/png;[^"]*?base64,([A-Za-z0-9+/=]+)"', entry)
     assert match, f"{figure}: no embedded PNG"
     png = base64.b64decode(match[1])
