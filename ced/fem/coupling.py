@@ -244,22 +244,26 @@ def build_layout(
                   kind, constraints)
 
 
-def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], shape,
+def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], per_case,
                 guide_angle: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
-    """Rotation jet of each joint's host frame (a slider joint's: its guide's)."""
-    eye = jets.constant(np.broadcast_to(np.eye(2), shape + (2, 2)))
+    """Rotation jet of each joint's host frame (a slider joint's: its guide's), points last
+    (3, 2, 2, points) or, for a constant frame, (3, 2, 2, 1)."""
+    eye = np.zeros((3, 2, 2, 1))
+    eye[0, :, :, 0] = np.eye(2)
     out = {j: (link_rot[h] if h is not None else eye) for j, h in layout.host.items()}
     for j, phi in (guide_angle or {}).items():
-        c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
-        R = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
-        out[j] = jets.constant(np.broadcast_to(R, shape + (2, 2)))
+        c, s = per_case(np.cos(phi)), per_case(np.sin(phi))
+        R = np.zeros((3, 2, 2, len(c)))
+        R[0] = np.stack([np.stack([c, -s]), np.stack([s, c])])
+        out[j] = R
     return out
 
 
 def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
-                points: dict[str, np.ndarray]) -> None:
-    """Fill the rows of H of joints at points of rigid links: U_E = U_f + φ (x e⊥ − y e) with
-    φ = e⊥ᵀ(U_s − U_f)/L, in an order where each link's ends are known first."""
+                points: dict[str, np.ndarray], per_case) -> None:
+    """Fill the rows of H (3, 2·joints, nx, points) of joints at points of rigid links:
+    U_E = U_f + φ (x e⊥ − y e) with φ = e⊥ᵀ(U_s − U_f)/L, in an order where each link's ends
+    are known first."""
     topo = layout.topology
     joints = list(topo.joints)
     rows = {j: slice(2 * k, 2 * k + 2) for k, j in enumerate(joints)}
@@ -273,13 +277,13 @@ def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
             i = topo.link_names.index(link)
             first, second = topo.links[link]
             R = rot[link]
-            e, n = R[..., :, 0:1], R[..., :, 1:2]
+            e, n = R[:, :, 0:1], R[:, :, 1:2]
             xy = np.asarray(points[j], float)
-            w = xy[:, 0, None, None, None] * n - xy[:, 1, None, None, None] * e
-            Hf = H[..., rows[first], :]
-            phi = jets.matmul(jets.transpose(n), H[..., rows[second], :] - Hf)
-            phi = phi / lengths[:, i][:, None, None, None]
-            H[..., rows[j], :] = Hf + jets.matmul(w, phi)
+            w = per_case(xy[:, 0]) * n - per_case(xy[:, 1]) * e
+            Hf = H[:, rows[first]]
+            phi = jets.matmul_points(jets.transpose_points(n), H[:, rows[second]] - Hf)
+            phi = phi / per_case(lengths[:, i])
+            H[:, rows[j]] = Hf + jets.matmul_points(w, phi)
             todo.remove(j)
 
 
@@ -313,85 +317,87 @@ def projection(
         ``layout.topology.sleeves``
     """
     topo = layout.topology
-    shape = link_angle.shape[:2]
+    ncase, nstep = shape = link_angle.shape[:2]
     names = topo.link_names
-    rot = {n: jets.rotation(link_angle[..., i], link_velocity[..., i], link_acceleration[..., i])
-           for i, n in enumerate(names)}
-    frames = _frame_jets(layout, rot, shape, guide_angle)
+    # Every jet below has its (case, step) points flattened on the last axis
+    # (jets.matmul_points): the products are of 2 × 2 rotations and a few columns, cheap per
+    # point but many points; a case's constant repeats over its steps.
+    flat = lambda x: x.reshape(ncase * nstep, -1).T  # noqa: E731  (case, step, k) -> (k, points)
+    per_case = lambda x: np.repeat(np.asarray(x, float), nstep)  # noqa: E731
+    every = jets.rotation_points(flat(link_angle), flat(link_velocity), flat(link_acceleration))
+    rot = {n: every[:, :, :, i] for i, n in enumerate(names)}
+    frames = _frame_jets(layout, rot, per_case, guide_angle)
     # Only the free and owned coordinates: a zero one contributes nothing, a joint at a point
     # has none (its rows follow from its link's, below).
     coords = [key for key, kind in layout.coordinate_kind.items() if kind in ("free", "own")]
     col = {key: i for i, key in enumerate(coords)}
-    nx = len(coords)
+    nx, npoint = len(coords), ncase * nstep
 
-    # U = H x: joint translations from host-frame coordinates, (3, ..., 2·joints, nx).
-    H = np.zeros((3,) + shape + (2 * len(topo.joints), nx))
+    # U = H x: joint translations from host-frame coordinates, (3, 2·joints, nx, points).
+    H = np.zeros((3, 2 * len(topo.joints), nx, npoint))
     for k, j in enumerate(topo.joints):
         for axis in (0, 1):
             if (j, axis) in col:
-                H[..., 2 * k : 2 * k + 2, col[(j, axis)]] = frames[j][..., :, axis]
+                H[:, 2 * k : 2 * k + 2, col[(j, axis)]] = frames[j][:, :, axis]
     if topo.points:
-        _point_rows(layout, H, rot, lengths, points)
+        _point_rows(layout, H, rot, lengths, points, per_case)
 
     # x = E x_free: zero coordinates vanish, owned ones solve the rigid-link constraints.
     free = layout.free_coordinates
-    E = np.zeros((3,) + shape + (nx, len(free)))
-    for i, key in enumerate(free):
-        E[0, ..., col[key], i] = 1.0
+    free_cols = [col[key] for key in free]
+    HE = H[:, :, free_cols]  # joint translations from the free coordinates (U = H E x_free)
     if layout.constraints:
-        rows = np.zeros((3,) + shape + (len(layout.constraints), nx))
+        rows = np.zeros((3, len(layout.constraints), nx, npoint))
         joint_index = {j: k for k, j in enumerate(topo.joints)}
         sleeve_of = {bar: (sleeve, pivot) for sleeve, (pivot, bar) in topo.sleeves.items()}
 
         def across(direction, joint, base):  # direction-row jet · (U_joint − U_base)
             k, b = joint_index[joint], joint_index[base]
-            return jets.matmul(direction, H[..., 2 * k : 2 * k + 2, :]
-                               - H[..., 2 * b : 2 * b + 2, :])
+            return jets.matmul_points(direction, H[:, 2 * k : 2 * k + 2]
+                                      - H[:, 2 * b : 2 * b + 2])
 
         for r, (name, what, _) in enumerate(layout.constraints):
             first, second = topo.links[name]
             if what == "prismatic":  # s e⊥ᵀ(U_T − U_P) − L e⊥ᵀ(U_Q − U_P) = 0
                 sleeve, pivot = sleeve_of[name]
-                n_row = jets.transpose(rot[name][..., :, 1:2])
-                s_jet = np.stack(slide[sleeve])[..., None, None]
-                L = lengths[:, names.index(name)][:, None, None, None]
-                rows[..., r : r + 1, :] = (jets.matmul(s_jet, across(n_row, second, first))
-                                           - L * across(n_row, pivot, first))
+                n_row = jets.transpose_points(rot[name][:, :, 1:2])
+                s_jet = np.stack(slide[sleeve]).reshape(3, 1, 1, npoint)
+                L = per_case(lengths[:, names.index(name)])
+                rows[:, r : r + 1] = (jets.matmul_points(s_jet, across(n_row, second, first))
+                                      - L * across(n_row, pivot, first))
                 continue
-            e_row = jets.transpose(rot[name][..., :, 0:1])  # e_iᵀ as a (1, 2) jet
+            e_row = jets.transpose_points(rot[name][:, :, 0:1])  # e_iᵀ as a (1, 2) jet
             for joint, sign in ((second, 1.0), (first, -1.0)):
                 k = joint_index[joint]
-                rows[..., r : r + 1, :] += sign * jets.matmul(e_row, H[..., 2 * k : 2 * k + 2, :])
+                rows[:, r : r + 1] += sign * jets.matmul_points(e_row, H[:, 2 * k : 2 * k + 2])
         own = [col[c[2]] for c in layout.constraints]
-        free_cols = [col[key] for key in free]
-        solve = -jets.matmul(jets.inverse(rows[..., own]), rows[..., free_cols])
-        for r, c in enumerate(own):
-            E[..., c, :] = solve[..., r, :]
-    HE = jets.matmul(H, E)  # joint translations from the free coordinates
+        solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
+        # H E with E = (identity on the free rows, the solve on the owned ones).
+        HE = HE + jets.matmul_points(H[:, :, own], solve)
 
-    P = np.zeros((3,) + shape + (layout.nz, len(free)))
+    # Padded points axis: the transposed copy at the end reads down the rows at a stride of
+    # the points axis, which at a power of two (64 phases × 16 cases) maps every row to the
+    # same cache set (5× slower).
+    P = np.zeros((3, layout.nz, len(free), npoint + 8))[..., :npoint]
     joint_index = {j: k for k, j in enumerate(topo.joints)}
     for j, off in layout.joint_offsets.items():
         k = joint_index[j]
-        P[..., off : off + 2, : len(free)] = HE[..., 2 * k : 2 * k + 2, :]
+        P[:, off : off + 2] = HE[:, 2 * k : 2 * k + 2]
+    # Every link's end translations in its frame, all links at once: (3, 2, nfree, end, link,
+    # points); one product however many links.
+    ends = [[joint_index[topo.links[n][e]] for n in names] for e in (0, 1)]
+    U = np.moveaxis(HE.reshape((3, -1, 2) + HE.shape[2:])[:, ends], (1, 2), (3, 4))
+    local = jets.matmul_points(jets.transpose_points(every)[:, :, :, None], U)
     link_off = layout.link_offsets
     for i, name in enumerate(names):
-        first, second = topo.links[name]
-        Uf = HE[..., 2 * joint_index[first] : 2 * joint_index[first] + 2, :]
-        Us = HE[..., 2 * joint_index[second] : 2 * joint_index[second] + 2, :]
-        RT = jets.transpose(rot[name])
         off = link_off[name]
         if layout.flexible[name]:
-            for end, U in zip(layout.end_dofs[name], (Uf, Us)):
-                local = jets.matmul(RT, U)
-                P[..., off + end[0], : len(free)] = local[..., 0, :]
-                P[..., off + end[1], : len(free)] = local[..., 1, :]
+            for e, (u, v) in enumerate(layout.end_dofs[name]):
+                P[:, off + u] = local[:, 0, :, e, i]
+                P[:, off + v] = local[:, 1, :, e, i]
         else:
             # Rigid link (u0, v0, φ): first-end motion in the link frame and φ = e⊥ᵀ(Us − Uf)/L.
-            local_f = jets.matmul(RT, Uf)
-            local_s = jets.matmul(RT, Us)
-            L = lengths[:, i][:, None, None]
-            P[..., off, : len(free)] = local_f[..., 0, :]
-            P[..., off + 1, : len(free)] = local_f[..., 1, :]
-            P[..., off + 2, : len(free)] = (local_s[..., 1, :] - local_f[..., 1, :]) / L
-    return P
+            P[:, off : off + 2] = local[:, :, :, 0, i]
+            P[:, off + 2] = (local[:, 1, :, 1, i] - local[:, 1, :, 0, i]) / per_case(lengths[:, i])
+    # Back to the points first, as the effects' products read it.
+    return np.ascontiguousarray(np.moveaxis(P, -1, 1)).reshape((3,) + shape + P.shape[1:3])
