@@ -149,11 +149,26 @@ def rotation_points(angle: np.ndarray, velocity: np.ndarray,
     return out
 
 
-def _product(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """X Y for matrices (a, b, …) and (b, c, …) with the points last: Σ_k X[:, k] Y[k]."""
-    out = x[:, 0, None] * y[None, 0]
+def _product(x: np.ndarray, y: np.ndarray, out: np.ndarray, scratch: np.ndarray) -> None:
+    """out = X Y for matrices (a, b, …) and (b, c, …) with the points last: Σ_k X[:, k] Y[k],
+    into ``out`` with one ``scratch`` array of its shape (no temporaries: on this machine a
+    fresh array of a few hundred kB costs a page fault per 4 kB, ~10× its arithmetic)."""
+    np.multiply(x[:, 0, None], y[None, 0], out=out)
     for k in range(1, x.shape[1]):
-        out += x[:, k, None] * y[None, k]
+        np.multiply(x[:, k, None], y[None, k], out=scratch)
+        out += scratch
+
+
+def _product_shape(x: np.ndarray, y: np.ndarray) -> tuple[int, ...]:
+    """Shape of X Y for (a, b, …) and (b, c, …), the point axes broadcast."""
+    return np.broadcast_shapes((x.shape[0], 1) + x.shape[2:], (1, y.shape[1]) + y.shape[2:])
+
+
+def _times(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """X Y for matrices (a, b, …) and (b, c, …) with the points last, a new array."""
+    shape = _product_shape(x, y)
+    out = np.empty(shape)
+    _product(x, y, out, np.empty(shape))
     return out
 
 
@@ -170,11 +185,20 @@ def matmul_points(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     numpy.ndarray
         The jet of X Y, (3, a, c, …).
     """
-    return np.stack([
-        _product(x[0], y[0]),
-        _product(x[1], y[0]) + _product(x[0], y[1]),
-        _product(x[2], y[0]) + 2.0 * _product(x[1], y[1]) + _product(x[0], y[2]),
-    ])
+    shape = _product_shape(x[0], y[0])
+    out = np.empty((3,) + shape)
+    term, scratch = np.empty(shape), np.empty(shape)
+    _product(x[0], y[0], out[0], scratch)
+    _product(x[1], y[0], out[1], scratch)
+    _product(x[0], y[1], term, scratch)
+    out[1] += term
+    _product(x[2], y[0], out[2], scratch)
+    _product(x[1], y[1], term, scratch)
+    term *= 2.0
+    out[2] += term
+    _product(x[0], y[2], term, scratch)
+    out[2] += term
+    return out
 
 
 def transpose_points(x: np.ndarray) -> np.ndarray:
@@ -207,6 +231,6 @@ def inverse_points(x: np.ndarray) -> np.ndarray:
         The jet of X⁻¹, (3, n, n, …).
     """
     y0 = np.moveaxis(np.linalg.inv(np.moveaxis(x[0], (0, 1), (-2, -1))), (-2, -1), (0, 1))
-    y1 = -_product(_product(y0, x[1]), y0)
-    y2 = -_product(y0, _product(x[2], y0) + 2.0 * _product(x[1], y1))
+    y1 = -_times(_times(y0, x[1]), y0)
+    y2 = -_times(y0, _times(x[2], y0) + 2.0 * _times(x[1], y1))
     return np.stack([y0, y1, y2])
