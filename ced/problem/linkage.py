@@ -515,7 +515,7 @@ def assembly_error(description: Mapping, angles) -> str | None:
     str or None
         A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
     """
-    for i, _, error, _ in _placed(description, angles, measures=False):
+    for i, error, _ in _placements(description, angles, measures=False):
         if error:
             return f"dyads[{i}]: {error}"
     return None
@@ -551,11 +551,39 @@ def transmission(description: Mapping, angles):
     import numpy as np
 
     out = []
-    for i, _, error, measure in _placed(description, angles):
+    for i, error, measure in _placements(description, angles, measures=True):
         if error:
             raise ValueError(f"dyads[{i}]: {error}")
         out.append(measure)
     return np.stack(out, axis=-1)
+
+
+#: Placements kept by :func:`_placements` (cleared when full).
+_KEPT_PLACEMENTS = 64
+_placements_kept: dict = {}
+
+
+def _placements(description: Mapping, angles, measures: bool) -> tuple:
+    """(index, why it cannot be assembled or None, transmission measure or None) per dyad as
+    :func:`_placed` yields them, up to the first that cannot be assembled; the same
+    description at the same angles is placed once. Every scene of a batch that differs in
+    its drive only (a speed sweep) has the same mechanism, checked at load and again by
+    ``near_singular`` over the same sampled turn: one placement serves them all."""
+    import numpy as np
+
+    angles = np.ascontiguousarray(angles, dtype=float)
+    key = (repr(description), angles.shape, angles.tobytes(), measures)
+    kept = _placements_kept.get(key)
+    if kept is None:
+        kept = tuple((i, error, measure) for i, _, error, measure
+                     in _placed(description, angles, measures))
+        for _, _, measure in kept:
+            if measure is not None:
+                measure.flags.writeable = False
+        if len(_placements_kept) >= _KEPT_PLACEMENTS:
+            _placements_kept.clear()
+        _placements_kept[key] = kept
+    return kept
 
 
 def _placed(description: Mapping, angles, measures: bool = True):
