@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import os
+import statistics
 import time
 
 import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
@@ -65,6 +66,9 @@ def main() -> None:
         a, b = (min(r.get(label, 0.0) for r in rounds[name]) for name in NAMES)
         ratio = f"{b / a:6.2f}" if a > 0 else "     -"
         print(f"{label:32s} {a:20.3f} {b:10.3f} {ratio}")
+    totals = [b["total"] / a["total"] for a, b in zip(*(rounds[name] for name in NAMES))]
+    print("total ratio, median of rounds", round(statistics.median(totals), 3),
+          "by round", [round(x, 3) for x in totals])
     print("load average", [round(x, 2) for x in os.getloadavg()])
 
 
