@@ -104,30 +104,6 @@ def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
 
 
 @nb.njit(**_JIT)
-def _solve_batch(A, b, x, ratio):
-    LU = np.empty(A.shape[1:])
-    piv = np.empty(A.shape[1], np.int64)
-    n = A.shape[1]
-    for c in range(A.shape[0]):
-        norms = 1.0
-        for i in range(n):
-            t = 0.0
-            for j in range(n):
-                t += A[c, i, j] * A[c, i, j]
-            norms *= np.sqrt(t)
-        LU[:, :] = A[c]
-        x[c] = b[c]
-        if not lu_factor(LU, piv):
-            ratio[c] = 0.0
-            continue
-        det = 1.0
-        for i in range(n):
-            det *= abs(LU[i, i])
-        ratio[c] = det / norms if norms > 0.0 else 0.0
-        lu_solve(LU, piv, x[c])
-
-
-@nb.njit(**_JIT)
 def _solve_blocks(A, b, x, ratio, rows, cols, starts):
     n = A.shape[1]
     size = 0
@@ -157,6 +133,7 @@ def _solve_blocks(A, b, x, ratio, rows, cols, starts):
                     LU[i, j] = A[c, r, cols[s0 + j]]
             if not lu_factor(LU, piv[:m]):
                 det = 0.0
+                x[c] = np.nan
                 break
             for i in range(m):
                 det *= abs(LU[i, i])
@@ -266,7 +243,7 @@ def solve_batch(A: np.ndarray, b: np.ndarray,
     Returns
     -------
     x : numpy.ndarray
-        Solutions, shape (..., n); meaningless where ``ratio`` is 0.
+        Solutions, shape (..., n); NaN where ``ratio`` is 0.
     ratio : numpy.ndarray
         Hadamard ratio |det A| / Π‖rowᵢ‖ of each matrix, shape (...): 1 for orthogonal rows,
         0 for a singular one (a zero or non-finite pivot).
@@ -276,8 +253,8 @@ def solve_batch(A: np.ndarray, b: np.ndarray,
     flat_b = np.ascontiguousarray(b, dtype=float).reshape(-1, n)
     x = np.empty_like(flat_b)
     ratio = np.empty(len(flat_A))
-    if blocks is None:
-        _solve_batch(flat_A, flat_b, x, ratio)
-    else:
-        _solve_blocks(flat_A, flat_b, x, ratio, *blocks)
+    if blocks is None:  # one block: the dense LU
+        whole = np.arange(n, dtype=np.int64)
+        blocks = (whole, whole, np.array([0, n], np.int64))
+    _solve_blocks(flat_A, flat_b, x, ratio, *blocks)
     return x.reshape(b.shape), ratio.reshape(A.shape[:-2])
