@@ -10,9 +10,13 @@ DOFs, the size of the step system (the dense per-step algebra grows faster than 
 it).
 
 The machine may be shared: the batches are run in ``ROUNDS`` interleaved rounds (four-bar,
-Watt II, four-bar of equal DOFs, then again), each batch's time is its fastest round (load
-only slows a run down), and the Watt II / equal-DOF four-bar ratio is also given round by
-round (the two ran seconds apart), with the load average before and after. Results go to
+Watt II, four-bar of equal DOFs, the order reversed every other round so that a drift in the
+load favours neither), each batch's time is its fastest round (load only slows a run down),
+and the Watt II / equal-DOF four-bar ratio is also taken round by round (the two ran seconds
+apart), with the load average before and after. **The acceptance figure is the median of the
+round-by-round ratios** (``ratio_median_of_rounds``): a burst of load during one batch moves
+one round's ratio, not the median, whereas the ratio of the fastest rounds
+(``ratio_fastest_of_rounds``, also recorded) rests on two single runs. Results go to
 ``benchmarks/six_bar_cost.json``.
 
 Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about two minutes).
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import statistics
 import time
 from pathlib import Path
 
@@ -34,7 +39,7 @@ from ced.response.model import build_model  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402
 
 BATCH = 64
-ROUNDS = 5
+ROUNDS = 9
 STEPS = 256
 FOUR_BAR = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
 WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
@@ -66,7 +71,9 @@ def main() -> None:
                        "interior_dofs": len(layout.interior_dofs), "nz": layout.nz}
         simulate(batch[:1])  # warm-up (compiled kernels, imports)
     load_before = [round(x, 2) for x in os.getloadavg()]
-    rounds = [{name: _timed(batch) for name, batch in batches.items()} for _ in range(ROUNDS)]
+    order = list(batches)
+    rounds = [{name: _timed(batches[name]) for name in (order if r % 2 == 0 else order[::-1])}
+              for r in range(ROUNDS)]
     out = {}
     for name in batches:
         best = min(r[name] for r in rounds)
@@ -75,13 +82,19 @@ def main() -> None:
                      "seconds_per_case_step": best / BATCH / STEPS,
                      "microseconds_per_case_step_dof": 1e6 * best / BATCH / STEPS / ny}
         print(name, out[name], flush=True)
-    out["ratio_watt_ii_to_four_bar_same_dofs"] = (
+    by_round = [r["watt_ii"] / r["four_bar_same_dofs"] for r in rounds]
+    out["ratio_median_of_rounds"] = statistics.median(by_round)
+    out["ratio_fastest_of_rounds"] = (
         out["watt_ii"]["seconds"] / out["four_bar_same_dofs"]["seconds"])
-    out["ratio_by_round"] = [round(r["watt_ii"] / r["four_bar_same_dofs"], 3) for r in rounds]
+    out["ratio_by_round"] = [round(x, 3) for x in by_round]
+    out["acceptance"] = ("ratio_median_of_rounds: the Watt II / four-bar of equal elastic "
+                         "DOFs, median of the round-by-round ratios, must be <= 1")
     out["load_average"] = {"before": load_before,
                            "after": [round(x, 2) for x in os.getloadavg()]}
-    out["machine_note"] = (f"{os.cpu_count()} cores; fastest of {ROUNDS} interleaved rounds")
-    print("ratio", round(out["ratio_watt_ii_to_four_bar_same_dofs"], 3), "by round",
+    out["machine_note"] = (f"{os.cpu_count()} cores; {ROUNDS} interleaved rounds (order "
+                           "reversed every other round); seconds: each batch's fastest round")
+    print("ratio: median of rounds", round(out["ratio_median_of_rounds"], 3),
+          "fastest of rounds", round(out["ratio_fastest_of_rounds"], 3), "by round",
           out["ratio_by_round"], "load", out["load_average"], flush=True)
     Path(__file__).with_suffix(".json").write_text(json.dumps(out, indent=2) + "\n")
 

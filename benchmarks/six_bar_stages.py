@@ -2,7 +2,8 @@
 
 The batches of ``six_bar_cost.py`` (64 cases; the four-bar at 6 elements, the Watt II at 4,
 36 elastic DOFs each), run in ``ROUNDS`` alternating rounds with the solver's stages timed
-(the stage functions wrapped by a timer); for each stage the fastest round, and the ratio.
+(the stage functions wrapped by a timer; "other" is the rest of ``simulate``); for each stage
+the fastest round, and the ratio.
 The table of docs/performance.md, "Six-bars against four-bars", comes from it.
 
 Run ``.venv/bin/python benchmarks/six_bar_stages.py`` (about a minute).
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import os
+import statistics
 import time
 
 import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
@@ -19,7 +21,7 @@ import ced.response.elastic as elastic  # noqa: E402
 import ced.simulation.simulate as simulate  # noqa: E402
 from six_bar_cost import CASES, scenes  # noqa: E402
 
-ROUNDS = 5
+ROUNDS = 7
 NAMES = ("four_bar_same_dofs", "watt_ii")
 #: (module, function, label): the stages timed.
 STAGES = (
@@ -31,6 +33,10 @@ STAGES = (
     (elastic, "shoot", "periodic start (shooting)"),
     (elastic, "forced_resonance", "forced-resonance check"),
     (elastic, "_recover", "recovery"),
+    (elastic, "_expand", "expansion to the link DOFs"),
+    (elastic, "cycle_frequencies", "modal analysis"),
+    (simulate, "make_batch", "batch set-up"),
+    (simulate, "make_dataset", "dataset"),
 )
 
 _spent: dict[str, float] = {}
@@ -59,12 +65,17 @@ def main() -> None:
             _spent.clear()
             start = time.perf_counter()
             simulate.simulate(batch)
-            rounds[name].append({**_spent, "total": time.perf_counter() - start})
+            total = time.perf_counter() - start
+            rounds[name].append({**_spent, "other": total - sum(_spent.values()),
+                                 "total": total})
     print(f"{'stage (s per 64 cases)':32s} {NAMES[0]:>20s} {NAMES[1]:>10s}  ratio")
-    for label in [label for *_, label in STAGES] + ["total"]:
+    for label in [label for *_, label in STAGES] + ["other", "total"]:
         a, b = (min(r.get(label, 0.0) for r in rounds[name]) for name in NAMES)
         ratio = f"{b / a:6.2f}" if a > 0 else "     -"
         print(f"{label:32s} {a:20.3f} {b:10.3f} {ratio}")
+    totals = [b["total"] / a["total"] for a, b in zip(*(rounds[name] for name in NAMES))]
+    print("total ratio, median of rounds", round(statistics.median(totals), 3),
+          "by round", [round(x, 3) for x in totals])
     print("load average", [round(x, 2) for x in os.getloadavg()])
 
 

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from . import jets
@@ -244,22 +245,26 @@ def build_layout(
                   kind, constraints)
 
 
-def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], shape,
+def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], per_case,
                 guide_angle: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
-    """Rotation jet of each joint's host frame (a slider joint's: its guide's)."""
-    eye = jets.constant(np.broadcast_to(np.eye(2), shape + (2, 2)))
+    """Rotation jet of each joint's host frame (a slider joint's: its guide's), points last
+    (3, 2, 2, points) or, for a constant frame, (3, 2, 2, 1)."""
+    eye = np.zeros((3, 2, 2, 1))
+    eye[0, :, :, 0] = np.eye(2)
     out = {j: (link_rot[h] if h is not None else eye) for j, h in layout.host.items()}
     for j, phi in (guide_angle or {}).items():
-        c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
-        R = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
-        out[j] = jets.constant(np.broadcast_to(R, shape + (2, 2)))
+        c, s = per_case(np.cos(phi)), per_case(np.sin(phi))
+        R = np.zeros((3, 2, 2, len(c)))
+        R[0] = np.stack([np.stack([c, -s]), np.stack([s, c])])
+        out[j] = R
     return out
 
 
 def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
-                points: dict[str, np.ndarray]) -> None:
-    """Fill the rows of H of joints at points of rigid links: U_E = U_f + φ (x e⊥ − y e) with
-    φ = e⊥ᵀ(U_s − U_f)/L, in an order where each link's ends are known first."""
+                points: dict[str, np.ndarray], per_case) -> None:
+    """Fill the rows of H (3, 2·joints, nx, points) of joints at points of rigid links:
+    U_E = U_f + φ (x e⊥ − y e) with φ = e⊥ᵀ(U_s − U_f)/L, in an order where each link's ends
+    are known first."""
     topo = layout.topology
     joints = list(topo.joints)
     rows = {j: slice(2 * k, 2 * k + 2) for k, j in enumerate(joints)}
@@ -273,13 +278,13 @@ def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
             i = topo.link_names.index(link)
             first, second = topo.links[link]
             R = rot[link]
-            e, n = R[..., :, 0:1], R[..., :, 1:2]
+            e, n = R[:, :, 0:1], R[:, :, 1:2]
             xy = np.asarray(points[j], float)
-            w = xy[:, 0, None, None, None] * n - xy[:, 1, None, None, None] * e
-            Hf = H[..., rows[first], :]
-            phi = jets.matmul(jets.transpose(n), H[..., rows[second], :] - Hf)
-            phi = phi / lengths[:, i][:, None, None, None]
-            H[..., rows[j], :] = Hf + jets.matmul(w, phi)
+            w = per_case(xy[:, 0]) * n - per_case(xy[:, 1]) * e
+            Hf = H[:, rows[first]]
+            phi = jets.matmul_points(jets.transpose_points(n), H[:, rows[second]] - Hf)
+            phi = phi / per_case(lengths[:, i])
+            H[:, rows[j]] = Hf + jets.matmul_points(w, phi)
             todo.remove(j)
 
 
@@ -313,85 +318,148 @@ def projection(
         ``layout.topology.sleeves``
     """
     topo = layout.topology
-    shape = link_angle.shape[:2]
+    ncase, nstep = shape = link_angle.shape[:2]
     names = topo.link_names
-    rot = {n: jets.rotation(link_angle[..., i], link_velocity[..., i], link_acceleration[..., i])
-           for i, n in enumerate(names)}
-    frames = _frame_jets(layout, rot, shape, guide_angle)
+    # Every jet below has its (case, step) points flattened on the last axis
+    # (jets.matmul_points): the products are of 2 × 2 rotations and a few columns, cheap per
+    # point but many points; a case's constant repeats over its steps.
+    # The points axis is padded with copies of the last point (_PAD of them): the assembly
+    # reads every row of a point at a stride of the axis, which at a power of two (64 phases
+    # × 16 cases) maps them all to one cache set.
+    flat = lambda x: _padded(x.reshape(ncase * nstep, -1).T)  # noqa: E731  (k, points)
+    per_case = lambda x: _padded(np.repeat(np.asarray(x, float), nstep))  # noqa: E731
+    every = jets.rotation_points(flat(link_angle), flat(link_velocity), flat(link_acceleration))
+    rot = {n: every[:, :, :, i] for i, n in enumerate(names)}
+    frames = _frame_jets(layout, rot, per_case, guide_angle)
     # Only the free and owned coordinates: a zero one contributes nothing, a joint at a point
     # has none (its rows follow from its link's, below).
     coords = [key for key, kind in layout.coordinate_kind.items() if kind in ("free", "own")]
     col = {key: i for i, key in enumerate(coords)}
-    nx = len(coords)
+    nx, npoint = len(coords), ncase * nstep + _PAD
 
-    # U = H x: joint translations from host-frame coordinates, (3, ..., 2·joints, nx).
-    H = np.zeros((3,) + shape + (2 * len(topo.joints), nx))
+    # U = H x: joint translations from host-frame coordinates, (3, 2·joints, nx, points).
+    H = np.zeros((3, 2 * len(topo.joints), nx, npoint))
     for k, j in enumerate(topo.joints):
         for axis in (0, 1):
             if (j, axis) in col:
-                H[..., 2 * k : 2 * k + 2, col[(j, axis)]] = frames[j][..., :, axis]
+                H[:, 2 * k : 2 * k + 2, col[(j, axis)]] = frames[j][:, :, axis]
     if topo.points:
-        _point_rows(layout, H, rot, lengths, points)
+        _point_rows(layout, H, rot, lengths, points, per_case)
 
     # x = E x_free: zero coordinates vanish, owned ones solve the rigid-link constraints.
     free = layout.free_coordinates
-    E = np.zeros((3,) + shape + (nx, len(free)))
-    for i, key in enumerate(free):
-        E[0, ..., col[key], i] = 1.0
+    free_cols = [col[key] for key in free]
+    own, solve = [], np.zeros((3, 0, len(free), npoint))
     if layout.constraints:
-        rows = np.zeros((3,) + shape + (len(layout.constraints), nx))
+        rows = np.zeros((3, len(layout.constraints), nx, npoint))
         joint_index = {j: k for k, j in enumerate(topo.joints)}
         sleeve_of = {bar: (sleeve, pivot) for sleeve, (pivot, bar) in topo.sleeves.items()}
 
         def across(direction, joint, base):  # direction-row jet · (U_joint − U_base)
             k, b = joint_index[joint], joint_index[base]
-            return jets.matmul(direction, H[..., 2 * k : 2 * k + 2, :]
-                               - H[..., 2 * b : 2 * b + 2, :])
+            return jets.matmul_points(direction, H[:, 2 * k : 2 * k + 2]
+                                      - H[:, 2 * b : 2 * b + 2])
 
         for r, (name, what, _) in enumerate(layout.constraints):
             first, second = topo.links[name]
             if what == "prismatic":  # s e⊥ᵀ(U_T − U_P) − L e⊥ᵀ(U_Q − U_P) = 0
                 sleeve, pivot = sleeve_of[name]
-                n_row = jets.transpose(rot[name][..., :, 1:2])
-                s_jet = np.stack(slide[sleeve])[..., None, None]
-                L = lengths[:, names.index(name)][:, None, None, None]
-                rows[..., r : r + 1, :] = (jets.matmul(s_jet, across(n_row, second, first))
-                                           - L * across(n_row, pivot, first))
+                n_row = jets.transpose_points(rot[name][:, :, 1:2])
+                s_jet = _padded(np.stack(slide[sleeve]).reshape(3, 1, 1, -1))
+                L = per_case(lengths[:, names.index(name)])
+                rows[:, r : r + 1] = (jets.matmul_points(s_jet, across(n_row, second, first))
+                                      - L * across(n_row, pivot, first))
                 continue
-            e_row = jets.transpose(rot[name][..., :, 0:1])  # e_iᵀ as a (1, 2) jet
+            e_row = jets.transpose_points(rot[name][:, :, 0:1])  # e_iᵀ as a (1, 2) jet
             for joint, sign in ((second, 1.0), (first, -1.0)):
                 k = joint_index[joint]
-                rows[..., r : r + 1, :] += sign * jets.matmul(e_row, H[..., 2 * k : 2 * k + 2, :])
+                rows[:, r : r + 1] += sign * jets.matmul_points(e_row, H[:, 2 * k : 2 * k + 2])
         own = [col[c[2]] for c in layout.constraints]
-        free_cols = [col[key] for key in free]
-        solve = -jets.matmul(jets.inverse(rows[..., own]), rows[..., free_cols])
-        for r, c in enumerate(own):
-            E[..., c, :] = solve[..., r, :]
-    HE = jets.matmul(H, E)  # joint translations from the free coordinates
+        solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
 
-    P = np.zeros((3,) + shape + (layout.nz, len(free)))
-    joint_index = {j: k for k, j in enumerate(topo.joints)}
-    for j, off in layout.joint_offsets.items():
-        k = joint_index[j]
-        P[..., off : off + 2, : len(free)] = HE[..., 2 * k : 2 * k + 2, :]
-    link_off = layout.link_offsets
-    for i, name in enumerate(names):
-        first, second = topo.links[name]
-        Uf = HE[..., 2 * joint_index[first] : 2 * joint_index[first] + 2, :]
-        Us = HE[..., 2 * joint_index[second] : 2 * joint_index[second] + 2, :]
-        RT = jets.transpose(rot[name])
-        off = link_off[name]
+    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
+    joint_rows = np.array([off + a for off in layout.joint_offsets.values() for a in (0, 1)],
+                          np.int64)
+    _assemble(H, np.array(free_cols, np.int64), np.array(own, np.int64), solve, every,
+              _link_ends(layout), _link_rows(layout), np.ascontiguousarray(lengths, dtype=float),
+              nstep, joint_rows, P)
+    return P.reshape((3,) + shape + P.shape[2:])
+
+
+#: Copies of the last point appended to the points axis (see :func:`projection`).
+_PAD = 8
+
+
+def _padded(x: np.ndarray) -> np.ndarray:
+    """x with its last axis extended by :data:`_PAD` copies of its last entry."""
+    return np.concatenate([x, np.repeat(x[..., -1:], _PAD, axis=-1)], axis=-1)
+
+
+def _link_ends(layout: Layout) -> np.ndarray:
+    """(link, 2) int: the joint index of each link's first and second end."""
+    topo = layout.topology
+    joints = list(topo.joints)
+    return np.array([[joints.index(j) for j in topo.links[n]] for n in topo.link_names],
+                    np.int64).reshape(-1, 2)
+
+
+def _link_rows(layout: Layout) -> np.ndarray:
+    """(link, 4) int: the z rows a link's end translations go to, in its frame: a flexible
+    link's (u, v) at its first end then at its second; a rigid link's (u0, v0, φ, −1)."""
+    out = []
+    for name, off in layout.link_offsets.items():
         if layout.flexible[name]:
-            for end, U in zip(layout.end_dofs[name], (Uf, Us)):
-                local = jets.matmul(RT, U)
-                P[..., off + end[0], : len(free)] = local[..., 0, :]
-                P[..., off + end[1], : len(free)] = local[..., 1, :]
+            out.append([off + d for end in layout.end_dofs[name] for d in end])
         else:
-            # Rigid link (u0, v0, φ): first-end motion in the link frame and φ = e⊥ᵀ(Us − Uf)/L.
-            local_f = jets.matmul(RT, Uf)
-            local_s = jets.matmul(RT, Us)
-            L = lengths[:, i][:, None, None]
-            P[..., off, : len(free)] = local_f[..., 0, :]
-            P[..., off + 1, : len(free)] = local_f[..., 1, :]
-            P[..., off + 2, : len(free)] = (local_s[..., 1, :] - local_f[..., 1, :]) / L
-    return P
+            out.append([off, off + 1, off + 2, -1])
+    return np.array(out, np.int64).reshape(-1, 4)
+
+
+@nb.njit(cache=True, nogil=True)
+def _assemble(H, free, own, solve, rot, ends, rows, lengths, nstep, joint_rows, P):
+    """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point:
+    the joint translations U = H E (E: the identity on the free coordinates, ``solve`` on
+    the owned ones: H[free] + H[own] solve) and each link's end translations in its frame,
+    Rᵀ U, with their two time derivatives (Leibniz). ``rot`` (3, 2, 2, link, point), ``H``
+    (3, 2·joints, nx, point) and ``solve`` (3, owned, nfree, point) may have more points
+    than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case."""
+    nj2, nf, nc = H.shape[1], free.shape[0], own.shape[0]
+    U = np.empty((3, nj2, nf))
+    for p in range(P.shape[1]):
+        for r in range(nj2):
+            for f in range(nf):
+                u0, u1, u2 = H[0, r, free[f], p], H[1, r, free[f], p], H[2, r, free[f], p]
+                for c in range(nc):
+                    h0, h1, h2 = H[0, r, own[c], p], H[1, r, own[c], p], H[2, r, own[c], p]
+                    s0, s1, s2 = solve[0, c, f, p], solve[1, c, f, p], solve[2, c, f, p]
+                    u0 += h0 * s0
+                    u1 += h1 * s0 + h0 * s1
+                    u2 += h2 * s0 + 2.0 * (h1 * s1) + h0 * s2
+                U[0, r, f], U[1, r, f], U[2, r, f] = u0, u1, u2
+                for d in range(3):
+                    P[d, p, joint_rows[r], f] = U[d, r, f]
+        for i in range(ends.shape[0]):
+            rigid = rows[i, 3] < 0
+            for e in range(2):
+                k = 2 * ends[i, e]
+                for a in range(2):  # (Rᵀ U)[a] = Σ_b R[b, a] U[b]
+                    for f in range(nf):
+                        v0 = v1 = v2 = 0.0
+                        for b in range(2):
+                            r0, r1, r2 = rot[0, b, a, i, p], rot[1, b, a, i, p], rot[2, b, a, i, p]
+                            w0, w1, w2 = U[0, k + b, f], U[1, k + b, f], U[2, k + b, f]
+                            v0 += r0 * w0
+                            v1 += r1 * w0 + r0 * w1
+                            v2 += r2 * w0 + 2.0 * (r1 * w1) + r0 * w2
+                        if not rigid:
+                            row = rows[i, 2 * e + a]
+                            P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
+                        elif e == 0:  # (u0, v0): the first end's translation
+                            row = rows[i, a]
+                            P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
+                        elif a == 1:  # φ = e⊥ᵀ(Us − Uf)/L
+                            L = lengths[p // nstep, i]
+                            row, first = rows[i, 2], rows[i, 1]
+                            P[0, p, row, f] = (v0 - P[0, p, first, f]) / L
+                            P[1, p, row, f] = (v1 - P[1, p, first, f]) / L
+                            P[2, p, row, f] = (v2 - P[2, p, first, f]) / L

@@ -30,6 +30,7 @@ inertia follow, :func:`ternary_bars`).
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -514,7 +515,7 @@ def assembly_error(description: Mapping, angles) -> str | None:
     str or None
         A message naming the dyad (``dyads[1]``, its links), the input angle and the lengths.
     """
-    for i, _, error, _ in _placed(description, angles):
+    for i, error, _ in _placements(description, angles, measures=False):
         if error:
             return f"dyads[{i}]: {error}"
     return None
@@ -550,18 +551,47 @@ def transmission(description: Mapping, angles):
     import numpy as np
 
     out = []
-    for i, _, error, measure in _placed(description, angles):
+    for i, error, measure in _placements(description, angles, measures=True):
         if error:
             raise ValueError(f"dyads[{i}]: {error}")
         out.append(measure)
     return np.stack(out, axis=-1)
 
 
-def _placed(description: Mapping, angles):
+#: Placements kept by :func:`_placements` (cleared when full).
+_KEPT_PLACEMENTS = 64
+_placements_kept: dict = {}
+
+
+def _placements(description: Mapping, angles, measures: bool) -> tuple:
+    """(index, why it cannot be assembled or None, transmission measure or None) per dyad as
+    :func:`_placed` yields them, up to the first that cannot be assembled; the same
+    description at the same angles is placed once. Every scene of a batch that differs in
+    its drive only (a speed sweep) has the same mechanism, checked at load and again by
+    ``near_singular`` over the same sampled turn: one placement serves them all."""
+    import numpy as np
+
+    angles = np.ascontiguousarray(angles, dtype=float)
+    key = (repr(description), angles.shape, angles.tobytes(), measures)
+    kept = _placements_kept.get(key)
+    if kept is None:
+        kept = tuple((i, error, measure) for i, _, error, measure
+                     in _placed(description, angles, measures))
+        for _, _, measure in kept:
+            if measure is not None:
+                measure.flags.writeable = False
+        if len(_placements_kept) >= _KEPT_PLACEMENTS:
+            _placements_kept.clear()
+        _placements_kept[key] = kept
+    return kept
+
+
+def _placed(description: Mapping, angles, measures: bool = True):
     """Place the dyads in order at the input ``angles`` (n,): yield, per dyad, (index, dyad,
-    why it cannot be assembled or None, its transmission measure (n,) or None) and stop at
-    the first that cannot. Each RRR takes its ``branch`` at every angle (a change point is
-    not tracked through: its sine vanishes there anyway).
+    why it cannot be assembled or None, its transmission measure (n,), or None without
+    ``measures``) and stop at the first that cannot. Each RRR takes its ``branch`` at every
+    angle (a change point is not tracked through: its sine vanishes there anyway). The last
+    dyad's links are checked, not placed: no later dyad hangs on them.
 
     Points are complex numbers x + iy and each placed link's frame is its first joint and
     the unit complex number e along it, so that a point (x, y) of the link is
@@ -570,7 +600,7 @@ def _placed(description: Mapping, angles):
 
     inp = description["input"]
     known = {name: complex(*xy) for name, xy in description["ground"].items()}
-    frame = {inp["link"]: (known[inp["pivot"]], np.exp(1j * angles))}
+    frame = {inp["link"]: (known[inp["pivot"]], _unit(angles))}
     points = {name: (point["link"], complex(*point["at"]))
               for name, point in description.get("points", {}).items()}
 
@@ -587,6 +617,7 @@ def _placed(description: Mapping, angles):
     ends.update({d["links"][1]: d["joints"][1] for d in description["dyads"]})
     place(inp["link"], inp["length"])
     rtol = 1e-9
+    last = len(description["dyads"]) - 1
     for i, dyad in enumerate(description["dyads"]):
         P = known[dyad["joints"][0]]
         l1 = dyad["lengths"][0]
@@ -604,16 +635,20 @@ def _placed(description: Mapping, angles):
                                 f"|{dyad['joints'][0]}{dyad['joints'][2]}| = {dist[k]:.4g} m "
                                 f"is outside [|{l1:g} − {l2:g}|, {l1:g} + {l2:g}] m"), None
                 return
-            # M on the circles about P (l1) and Q (l2): a along P→Q, ±h across it (left for
-            # the open branch).
-            a = np.clip((l1 * l1 - l2 * l2 + dist * dist) / (2 * dist), -l1, l1)
-            M = P + (a + 1j * sign * np.sqrt(l1 * l1 - a * a)) * (d / dist)
-            frame[dyad["links"][0]] = (P, (M - P) / l1)
-            frame[dyad["links"][1]] = (Q, (M - Q) / l2)
-            place(dyad["links"][0], l1)
-            place(dyad["links"][1], l2)
-            cos_mu = np.clip((l1 * l1 + l2 * l2 - dist * dist) / (2 * l1 * l2), -1, 1)
-            yield i, dyad, None, np.sqrt(1.0 - cos_mu * cos_mu)
+            if i < last:
+                # M on the circles about P (l1) and Q (l2): a along P→Q, ±h across it (left
+                # for the open branch).
+                a = np.clip((l1 * l1 - l2 * l2 + dist * dist) / (2 * dist), -l1, l1)
+                M = P + (a + 1j * sign * np.sqrt(l1 * l1 - a * a)) * (d / dist)
+                frame[dyad["links"][0]] = (P, (M - P) / l1)
+                frame[dyad["links"][1]] = (Q, (M - Q) / l2)
+                place(dyad["links"][0], l1)
+                place(dyad["links"][1], l2)
+            measure = None
+            if measures:
+                cos_mu = np.clip((l1 * l1 + l2 * l2 - dist * dist) / (2 * l1 * l2), -1, 1)
+                measure = np.sqrt(1.0 - cos_mu * cos_mu)
+            yield i, dyad, None, measure
         elif dyad["kind"] == "RRP":
             along = complex(math.cos(dyad["guide"]["angle"]), math.sin(dyad["guide"]["angle"]))
             # h = n·(P − G0): the imaginary part in the guide's frame.
@@ -628,17 +663,39 @@ def _placed(description: Mapping, angles):
                 return
             # n·(M − P) = −h with M − P = l1 e1: e1 = (±√(1 − (h/l1)²) − i h/l1) along.
             cosine = np.sqrt(1 - (h / l1) ** 2)
-            frame[dyad["links"][0]] = (P, (sign * cosine - 1j * h / l1) * along)
-            place(dyad["links"][0], l1)
-            yield i, dyad, None, cosine
+            if i < last:
+                frame[dyad["links"][0]] = (P, (sign * cosine - 1j * h / l1) * along)
+                place(dyad["links"][0], l1)
+            yield i, dyad, None, cosine if measures else None
         else:
             error, e1, slide = _rpr_assembly(dyad, P, known[dyad["joints"][2]], angles, rtol)
             if error:
                 yield i, dyad, error, None
                 return
-            frame[dyad["links"][0]] = (P, e1)
-            place(dyad["links"][0], l1)
-            yield i, dyad, None, np.minimum(slide / l1, 1.0)
+            if i < last:
+                frame[dyad["links"][0]] = (P, e1)
+                place(dyad["links"][0], l1)
+            yield i, dyad, None, np.minimum(slide / l1, 1.0) if measures else None
+
+
+def _unit(angles):
+    """e^{iθ} (n,) at the input angles θ (n,) rad, read-only. The assembly check of every
+    scene and ``near_singular`` of every case sample the same turn (ASSEMBLY_SAMPLES angles
+    from 0): the last few are kept, their complex exponential being a fifth of placing a
+    six-bar."""
+    import numpy as np
+
+    angles = np.ascontiguousarray(angles, dtype=float)
+    return _unit_of(angles.tobytes(), angles.shape)
+
+
+@functools.lru_cache(maxsize=4)
+def _unit_of(data: bytes, shape: tuple[int, ...]):
+    import numpy as np
+
+    out = np.exp(1j * np.frombuffer(data).reshape(shape))
+    out.flags.writeable = False
+    return out
 
 
 def _rpr_assembly(dyad: Mapping, P, Q, angles, rtol: float):

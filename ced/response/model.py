@@ -76,6 +76,9 @@ def build_model(batch: Batch) -> Model:
     flexible = {name: scene["links"][name]["flexible"] for name in topo.links}
     links, recovery, sizes, ends = {}, {}, {}, {}
     clamp_dofs: tuple[int, ...] = ()
+    extra = ({"elements_across": scene["discretization"]["elements_across"]}
+             if formulation == "plane_stress" else {})
+    flexible_matrices = _flexible_links(batch, element, n_el, stations, flexible, extra)
     for i, name in enumerate(topo.links):
         par = {key: batch.link_property(name, "material", key) for key in ("E", "G", "rho")}
         sec = {key: batch.link_property(name, "section", key)
@@ -83,13 +86,7 @@ def build_model(batch: Batch) -> Model:
         length = batch.link_lengths[:, i]
         rotary = 0.0
         if flexible[name]:
-            extra = ({"elements_across": scene["discretization"]["elements_across"]}
-                     if formulation == "plane_stress" else {})
-            m = element.link_matrices(
-                length, n_el, E=par["E"], G_shear=par["G"], rho=par["rho"], area=sec["area"],
-                second_moment=sec["second_moment"], height=sec["height"],
-                shear_coefficient=sec["shear_coefficient"], **extra)
-            recovery[name] = element.recovery_matrices(m, stations)
+            m, recovery[name] = flexible_matrices[name]
             ends[name] = tuple(tuple(int(d) for d in pair) for pair in m.end_dofs)
             if formulation in ("timoshenko", "plane_stress"):
                 # The mass carries the section's rotary inertia: the rigid angular
@@ -145,6 +142,42 @@ def build_model(batch: Batch) -> Model:
     if "damping" in effects and scene["damping"]["model"] == "modal":
         model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
     return model
+
+
+def _flexible_links(batch: Batch, element, n_el: int, stations: np.ndarray,
+                    flexible: dict[str, bool], extra: dict) -> dict[str, tuple]:
+    """(link matrices, recovery operators) of every flexible link, (case, …) each.
+
+    The flexible links share the mesh, so they are built in one call of the element module
+    over (link × case), then split: building costs ~2 ms a call whatever the batch (16 to 48
+    cases), and a six-bar has three flexible links where a four-bar has two."""
+    names = [name for name in batch.topology.links if flexible[name]]
+    if not names:
+        return {}
+    columns = [batch.topology.link_names.index(name) for name in names]
+
+    def stacked(group, key):
+        return np.concatenate([np.broadcast_to(batch.link_property(name, group, key),
+                                               (batch.size,)) for name in names])
+
+    m = element.link_matrices(
+        batch.link_lengths[:, columns].T.reshape(-1), n_el, E=stacked("material", "E"),
+        G_shear=stacked("material", "G"), rho=stacked("material", "rho"),
+        area=stacked("section", "area"), second_moment=stacked("section", "second_moment"),
+        height=stacked("section", "height"),
+        shear_coefficient=stacked("section", "shear_coefficient"), **extra)
+    operators = element.recovery_matrices(m, stations)
+    total = batch.size * len(names)
+
+    def part(x, k):  # link k's cases of an array over (link × case)
+        if isinstance(x, np.ndarray) and x.ndim and x.shape[0] == total:
+            return x[k * batch.size : (k + 1) * batch.size]
+        return x
+
+    return {name: (dataclasses.replace(m, **{f.name: part(getattr(m, f.name), k)
+                                             for f in dataclasses.fields(m)}),
+                   {key: part(op, k) for key, op in operators.items()})
+            for k, name in enumerate(names)}
 
 
 def _sleeve_inertia(batch: Batch, link: str) -> np.ndarray | None:

@@ -151,18 +151,18 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     inp = first["input"]
     lengths[inp["link"]] = _column(descriptions, lambda d: d["input"]["length"])
     angles[inp["link"]] = (motion.angle, motion.velocity, motion.acceleration)
-    known_points = {}
 
     def place(link: str) -> None:
-        """Known points at the second joint and at the points of a placed link."""
+        """Known points at the second joint and at the points of a placed link (the first
+        placement of a point is kept: a dyad's middle joint is placed from its first link)."""
         start = known[topo.links[link][0]]
         local = {topo.links[link][1]: np.stack([lengths[link], 0 * lengths[link]], axis=-1)}
         for name, point in first.get("points", {}).items():
             if point["link"] == link:
                 local[name] = _column(descriptions, lambda d: d["points"][name]["at"])
         for name, xy in local.items():
-            known_points[name] = point_motion(start, *angles[link], xy)
-            known.setdefault(name, known_points[name])
+            if name not in known:
+                known[name] = point_motion(start, *angles[link], xy)
 
     place(inp["link"])
     for k, dyad in enumerate(first["dyads"]):

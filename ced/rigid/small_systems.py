@@ -7,14 +7,18 @@ and :func:`lu_solve` work on one system, in place, allocating nothing (the elast
 :mod:`ced.response.kernels`, calls them at every step); :func:`solve_batch` solves a batch
 of systems and returns, with the solutions, each matrix's Hadamard ratio
 |det A| / Π‖rowᵢ‖ from the same LU (the singularity measure of
-:mod:`ced.rigid.inverse_dynamics`).
+:mod:`ced.rigid.inverse_dynamics`). Given the :func:`block_order` of the systems' common
+sparsity pattern, it solves them block by block (a linkage's Newton–Euler system falls into
+one block per dyad, solved from the last dyad back to the input).
 """
 from __future__ import annotations
+
+import functools
 
 import numba as nb
 import numpy as np
 
-__all__ = ["lu_factor", "lu_solve", "solve_batch"]
+__all__ = ["lu_factor", "lu_solve", "solve_batch", "block_order"]
 
 _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 
@@ -100,10 +104,14 @@ def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
 
 
 @nb.njit(**_JIT)
-def _solve_batch(A, b, x, ratio):
-    LU = np.empty(A.shape[1:])
-    piv = np.empty(A.shape[1], np.int64)
+def _solve_blocks(A, b, x, ratio, rows, cols, starts):
     n = A.shape[1]
+    size = 0
+    for k in range(starts.shape[0] - 1):
+        size = max(size, starts[k + 1] - starts[k])
+    piv = np.empty(size, np.int64)
+    rhs = np.empty(size)
+    work = np.empty(size * size)
     for c in range(A.shape[0]):
         norms = 1.0
         for i in range(n):
@@ -111,19 +119,114 @@ def _solve_batch(A, b, x, ratio):
             for j in range(n):
                 t += A[c, i, j] * A[c, i, j]
             norms *= np.sqrt(t)
-        LU[:, :] = A[c]
-        x[c] = b[c]
-        if not lu_factor(LU, piv):
-            ratio[c] = 0.0
-            continue
         det = 1.0
-        for i in range(n):
-            det *= abs(LU[i, i])
+        for k in range(starts.shape[0] - 1):
+            s0, m = starts[k], starts[k + 1] - starts[k]
+            LU = work[: m * m].reshape((m, m))
+            for i in range(m):
+                r = rows[s0 + i]
+                t = b[c, r]
+                for j in range(s0):  # the columns of the blocks solved already
+                    t -= A[c, r, cols[j]] * x[c, cols[j]]
+                rhs[i] = t
+                for j in range(m):
+                    LU[i, j] = A[c, r, cols[s0 + j]]
+            if not lu_factor(LU, piv[:m]):
+                det = 0.0
+                x[c] = np.nan
+                break
+            for i in range(m):
+                det *= abs(LU[i, i])
+            lu_solve(LU, piv[:m], rhs[:m])
+            for i in range(m):
+                x[c, cols[s0 + i]] = rhs[i]
         ratio[c] = det / norms if norms > 0.0 else 0.0
-        lu_solve(LU, piv, x[c])
 
 
-def solve_batch(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def block_order(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Row and column orders that make a square sparsity pattern block lower triangular,
+    with the smallest blocks (Dulmage–Mendelsohn): a perfect matching of rows to columns,
+    then the strongly connected components of "row r needs the column matched to row r′",
+    dependencies first. None when the pattern has no perfect matching (structurally
+    singular).
+
+    Parameters
+    ----------
+    pattern : numpy.ndarray
+        Which entries may be nonzero, bool (n, n).
+
+    Returns
+    -------
+    rows, cols : numpy.ndarray
+        Orders (n,) int: block k is rows[starts[k]:starts[k + 1]] by the same columns.
+    starts : numpy.ndarray
+        Block boundaries (blocks + 1,) int.
+    """
+    pattern = np.asarray(pattern, bool)
+    return _block_order(pattern.shape[0], pattern.tobytes())
+
+
+@functools.lru_cache(maxsize=32)
+def _block_order(n: int, data: bytes):
+    pattern = np.frombuffer(data, bool).reshape(n, n)
+    needs = [list(np.flatnonzero(row)) for row in pattern]
+    owner = [-1] * n  # column -> its matched row
+
+    def augment(r, seen):  # Kuhn's augmenting path from row r
+        for c in needs[r]:
+            if not seen[c]:
+                seen[c] = True
+                if owner[c] < 0 or augment(owner[c], seen):
+                    owner[c] = r
+                    return True
+        return False
+
+    for r in range(n):
+        if not augment(r, [False] * n):
+            return None
+    column = {r: c for c, r in enumerate(owner)}
+    edges = [[owner[c] for c in needs[r] if owner[c] != r] for r in range(n)]
+    blocks = _components(edges)  # dependencies first
+    rows = [r for block in blocks for r in block]
+    starts = np.cumsum([0] + [len(block) for block in blocks])
+    return (np.array(rows, np.int64), np.array([column[r] for r in rows], np.int64),
+            starts.astype(np.int64))
+
+
+def _components(edges: list[list[int]]) -> list[list[int]]:
+    """Strongly connected components of a directed graph (Tarjan), each after every
+    component it has an edge to."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            block = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                block.append(w)
+                if w == v:
+                    break
+            out.append(sorted(block))
+
+    for v in range(len(edges)):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def solve_batch(A: np.ndarray, b: np.ndarray,
+                blocks: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Solve A x = b for a batch of small systems by LU with partial pivoting.
 
     Parameters
@@ -132,11 +235,15 @@ def solve_batch(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         Matrices, shape (..., n, n).
     b : numpy.ndarray
         Right-hand sides, shape (..., n).
+    blocks : tuple of numpy.ndarray, optional
+        The :func:`block_order` of a pattern that holds every nonzero of every A: the LU is
+        then of the diagonal blocks only, in that order (the same solution and |det A|, to
+        round-off).
 
     Returns
     -------
     x : numpy.ndarray
-        Solutions, shape (..., n); meaningless where ``ratio`` is 0.
+        Solutions, shape (..., n); NaN where ``ratio`` is 0.
     ratio : numpy.ndarray
         Hadamard ratio |det A| / Π‖rowᵢ‖ of each matrix, shape (...): 1 for orthogonal rows,
         0 for a singular one (a zero or non-finite pivot).
@@ -146,5 +253,8 @@ def solve_batch(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     flat_b = np.ascontiguousarray(b, dtype=float).reshape(-1, n)
     x = np.empty_like(flat_b)
     ratio = np.empty(len(flat_A))
-    _solve_batch(flat_A, flat_b, x, ratio)
+    if blocks is None:  # one block: the dense LU
+        whole = np.arange(n, dtype=np.int64)
+        blocks = (whole, whole, np.array([0, n], np.int64))
+    _solve_blocks(flat_A, flat_b, x, ratio, *blocks)
     return x.reshape(b.shape), ratio.reshape(A.shape[:-2])
