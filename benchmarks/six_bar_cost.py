@@ -19,7 +19,7 @@ one round's ratio, not the median, whereas the ratio of the fastest rounds
 (``ratio_fastest_of_rounds``, also recorded) rests on two single runs. Results go to
 ``benchmarks/six_bar_cost.json``.
 
-Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about two minutes).
+Run ``.venv/bin/python benchmarks/six_bar_cost.py`` (about two and a half minutes).
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ from ced.response.model import build_model  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402
 
 BATCH = 64
-ROUNDS = 9
+ROUNDS = 15
 STEPS = 256
 FOUR_BAR = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
 WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,

@@ -1,131 +1,26 @@
 """Second-order jets: a time-dependent array with its first two time derivatives.
 
-A jet is an array of shape ``(3, ...)`` holding X, Ẋ, Ẍ. The projections of the elastic model
-(docs/theory.md: link-end DOFs are projections of joint translations, and the time derivatives of
-those projections belong to the exact equations) are products of rotation matrices; carrying
-jets through the products gives Ṗ and P̈ exactly, without finite differences.
+A jet holds X, Ẋ, Ẍ on its first axis; here with the matrix axes next and the points
+(every case and step) last, shape (3, rows, columns, …, points). The projections of the
+elastic model (docs/theory.md: link-end DOFs are projections of joint translations, and the
+time derivatives of those projections belong to the exact equations) are products of rotation
+matrices; carrying jets through the products gives Ṗ and P̈ exactly, without finite
+differences. The matrices are tiny (2 × 2 rotations by a few joint-coordinate columns) and the
+points many: numpy's batched matmul over stacks of such matrices costs ~0.1 µs per matrix,
+while with the points on the last (contiguous) axis a product is a few elementwise passes.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rotation", "matmul", "transpose", "inverse", "constant", "rotation_points",
-           "matmul_points", "transpose_points", "inverse_points"]
-
-
-def rotation(angle: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-    """Jet of R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]], shape (3, ..., 2, 2).
-
-    Uses d/dt cos θ = −ω sin θ, d²/dt² cos θ = −α sin θ − ω² cos θ (and likewise for sin).
-
-    Parameters
-    ----------
-    angle : numpy.ndarray
-        Angle θ, rad.
-    velocity : numpy.ndarray
-        Angular velocity ω = θ̇, rad/s (same shape as ``angle``).
-    acceleration : numpy.ndarray
-        Angular acceleration α = θ̈, rad/s² (same shape as ``angle``).
-
-    Returns
-    -------
-    numpy.ndarray
-        (R, Ṙ, R̈), shape (3, ..., 2, 2).
-    """
-    c, s = np.cos(angle), np.sin(angle)
-    w, a = velocity, acceleration
-    cos_jet = np.stack([c, -w * s, -a * s - w * w * c])
-    sin_jet = np.stack([s, w * c, a * c - w * w * s])
-    out = np.empty(cos_jet.shape + (2, 2))
-    out[..., 0, 0] = cos_jet
-    out[..., 0, 1] = -sin_jet
-    out[..., 1, 0] = sin_jet
-    out[..., 1, 1] = cos_jet
-    return out
-
-
-def constant(x: np.ndarray) -> np.ndarray:
-    """Jet of a constant array.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        The value.
-
-    Returns
-    -------
-    numpy.ndarray
-        (x, 0, 0), shape (3,) + x.shape.
-    """
-    out = np.zeros((3,) + np.shape(x))
-    out[0] = x
-    return out
-
-
-def matmul(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Jet of X Y by the Leibniz rule: (XY)' = X'Y + XY', (XY)'' = X''Y + 2X'Y' + XY''.
-
-    Parameters
-    ----------
-    x, y : numpy.ndarray
-        Jets (3, ..., a, b) and (3, ..., b, c).
-
-    Returns
-    -------
-    numpy.ndarray
-        The jet of X Y, (3, ..., a, c).
-    """
-    return np.stack([
-        x[0] @ y[0],
-        x[1] @ y[0] + x[0] @ y[1],
-        x[2] @ y[0] + 2.0 * (x[1] @ y[1]) + x[0] @ y[2],
-    ])
-
-
-def transpose(x: np.ndarray) -> np.ndarray:
-    """Jet of Xᵀ (last two axes).
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        A jet (3, ..., a, b).
-
-    Returns
-    -------
-    numpy.ndarray
-        The jet of Xᵀ, (3, ..., b, a) (a view).
-    """
-    return np.swapaxes(x, -1, -2)
-
-
-def inverse(x: np.ndarray) -> np.ndarray:
-    """Jet of X⁻¹: (X⁻¹)' = −X⁻¹ X' X⁻¹, (X⁻¹)'' = −X⁻¹ (X'' Y + 2 X' Y') with Y = X⁻¹.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        A jet (3, ..., n, n) of an invertible matrix.
-
-    Returns
-    -------
-    numpy.ndarray
-        The jet of X⁻¹, (3, ..., n, n).
-    """
-    y0 = np.linalg.inv(x[0])
-    y1 = -y0 @ x[1] @ y0
-    y2 = -y0 @ (x[2] @ y0 + 2.0 * (x[1] @ y1))
-    return np.stack([y0, y1, y2])
-
-
-# Jets with the points last: (3, rows, columns, …, points). The projection multiplies a few
-# 2 × 2 rotations and joint-coordinate columns at every (case, step); numpy's batched matmul
-# over (case, step) stacks of such tiny matrices costs ~0.1 µs per matrix, while with the
-# points on the last (contiguous) axis a product is a few elementwise passes over them.
+__all__ = ["rotation_points", "matmul_points", "transpose_points", "inverse_points"]
 
 
 def rotation_points(angle: np.ndarray, velocity: np.ndarray,
                     acceleration: np.ndarray) -> np.ndarray:
-    """:func:`rotation` with the points last: shape (3, 2, 2) + angle.shape (same values).
+    """Jet of R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]], shape (3, 2, 2) + angle.shape.
+
+    Uses d/dt cos θ = −ω sin θ, d²/dt² cos θ = −α sin θ − ω² cos θ (and likewise for sin).
 
     Parameters
     ----------
@@ -173,7 +68,7 @@ def _times(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def matmul_points(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """:func:`matmul` with the points last (the same Leibniz rule; equal to round-off).
+    """Jet of X Y by the Leibniz rule: (XY)' = X'Y + XY', (XY)'' = X''Y + 2X'Y' + XY''.
 
     Parameters
     ----------
@@ -218,7 +113,7 @@ def transpose_points(x: np.ndarray) -> np.ndarray:
 
 
 def inverse_points(x: np.ndarray) -> np.ndarray:
-    """:func:`inverse` with the points last.
+    """Jet of X⁻¹: (X⁻¹)' = −X⁻¹ X' X⁻¹, (X⁻¹)'' = −X⁻¹ (X'' Y + 2 X' Y') with Y = X⁻¹.
 
     Parameters
     ----------
