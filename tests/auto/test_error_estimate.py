@@ -26,7 +26,8 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     assert companion.scene["discretization"]["elements_per_link"] == 4
     assert companion.scene["time"]["steps_per_revolution"] == 128
     assert companion.scene["modal"] is None
-    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY_PERIODIC times that (a periodic start).
+    # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY_PERIODIC times
+    # that (a periodic start).
     assert companion.factor == pytest.approx(SAFETY_PERIODIC / 3.0)
 
 
