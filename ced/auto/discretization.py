@@ -43,6 +43,8 @@ predicted error and whether the tolerance was reachable within the ladders' limi
 was not, the ladders' finest rungs are used and ``status`` has ``tolerance_unmet``). The
 predicted error at the chosen setting is also the case's ``error_estimate``: the ladders are
 its companion solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases).
+Cases that differ only in name share one set of ladders: a batch of identical cases pays for
+one case's pilots.
 """
 from __future__ import annotations
 
@@ -291,6 +293,19 @@ def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[li
     return peaks
 
 
+def _pilot_key(scene: dict):
+    """A hashable key of a normalized scene without its name: equal keys, equal pilots."""
+    def key(value):
+        if isinstance(value, dict):
+            return tuple(sorted((k, key(v)) for k, v in value.items() if k != "name"))
+        if isinstance(value, (list, tuple)):
+            return tuple(key(v) for v in value)
+        if isinstance(value, np.ndarray):
+            return ("ndarray", value.dtype.str, value.shape, value.tobytes())
+        return value
+    return key(scene)
+
+
 def _flexible_links(scene: dict) -> int:
     return sum(bool(link["flexible"]) for link in scene["links"].values())
 
@@ -315,8 +330,14 @@ def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[di
         The scenes with the chosen discretization, and per scene a report (empty dict when
         the scene was not ``auto``).
     """
-    auto = [i for i, s in enumerate(scenes) if s["discretization"] == "auto"]
     reports: list[dict] = [{} for _ in scenes]
+    # Scenes that differ only in name share their ladders: the pilots of a batch of identical
+    # cases are solved once, not once per case.
+    representative: dict = {}
+    for i, s in enumerate(scenes):
+        if s["discretization"] == "auto":
+            representative.setdefault(_pilot_key(s), i)
+    auto = list(representative.values())
     if not auto:
         return scenes, reports
     work = [scenes[i] for i in auto]
@@ -388,7 +409,13 @@ def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[di
     revolutions = max(scenes[i]["time"]["revolutions"] for i in auto)
     modes = 0 if bool(cost(elements, steps, revolutions, flexible)[1]) else MODES
     out = list(scenes)
-    for (space, time), i in zip(ladders, auto):
+    ladder_of = dict(zip(auto, ladders))
+    for i, scene in enumerate(scenes):
+        if scene["discretization"] != "auto":
+            continue
+        first = representative[_pilot_key(scene)]
+        space, time = ladder_of[first]
+        reports[i] = copy.deepcopy(reports[first])
         # The case's predicted error at the shared setting: its error estimate (the ladders
         # are its companions, ``ced.simulation.simulate``).
         predicted = float(predicted_error(space, time, elements, steps))

@@ -209,3 +209,28 @@ def test_several_auto_scenes_share_the_most_demanding_discretization():
     assert choices[0]["steps_per_revolution"] == choices[1]["steps_per_revolution"] == max(
         s for _, s in own)
     assert choices[0]["elements_per_link"] == max(e for e, _ in own)
+
+
+def test_identical_scenes_share_their_pilots():
+    # A batch of cases that differ only in name climbs one ladder; each case gets the same
+    # choice and report as it would alone, and a different case still climbs its own.
+    def peak(ne, spr):
+        return 1.0 + 0.3 / ne**3 - 20.0 / spr**2
+
+    def raw(tolerance, **changes):
+        return load_scene(reference_raw(discretization="auto", tolerance=tolerance, **changes))
+
+    alone_log, copies_log, mixed_log, other_log = [], [], [], []
+    (alone,), (alone_report,) = resolve_discretization([raw(1e-3)],
+                                                       fake_solver(peak, log=alone_log))
+    copies = [raw(1e-3, name=f"copy {k}") for k in range(4)]
+    chosen, reports = resolve_discretization(copies, fake_solver(peak, log=copies_log))
+    assert copies_log == alone_log
+    for scene, report in zip(chosen, reports):
+        assert report == alone_report
+        assert scene["discretization"] == alone["discretization"]
+        assert scene["time"]["steps_per_revolution"] == alone["time"]["steps_per_revolution"]
+    assert [s["name"] for s in chosen] == [f"copy {k}" for k in range(4)]
+    resolve_discretization([raw(1e-2)], fake_solver(peak, log=other_log))
+    resolve_discretization(copies + [raw(1e-2)], fake_solver(peak, log=mixed_log))
+    assert sorted(mixed_log) == sorted(alone_log + other_log)
