@@ -72,6 +72,12 @@ rule all:
             ext=("md", "csv"),
         ),
         expand(
+            "results/{study}/figures/accuracy/{family}.{ext}",
+            study=STUDY,
+            family=CONVERGENCE_FAMILIES,
+            ext=("png", "svg"),
+        ),
+        expand(
             "results/{study}/figures/{kind}/{family}.{ext}",
             study=STUDY,
             kind=("resonance", "worst_case"),

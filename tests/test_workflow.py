@@ -67,6 +67,7 @@ def test_dry_run(path, tmp_path):
     families = list(sweep["families"]) if sweep else []
     assert counts.get("convergence_family", 0) == len(families)
     assert counts.get("convergence_summary", 0) == (1 if families else 0)
+    assert counts.get("pareto_figure", 0) == len(families)
     for family in families:
         assert f"results/{config['study']}/convergence/{family}.nc" in output
         assert f"results/{config['study']}/figures/accuracy/{family}.png" in output
@@ -119,7 +120,7 @@ def test_lint():
     assert set(rules) <= {"simulate_chunk", "reduce_family", "overview_figure",
                           "estimate_figure", "campbell_figure", "fidelity_ladder", "resonance_map",
                           "worst_case_figure", "safe_speed_table", "convergence_family",
-                          "convergence_summary"}
+                          "convergence_summary", "pareto_figure"}
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,9 @@ measured solve time per case; dimension ``tolerance`` with the automatic discret
 * :func:`pareto_figure`: error against solve time per case, one panel per quantity (peak
   stress, peak deflection, first natural frequency), with the Pareto front.
 * :func:`estimate_figure`: true error of peak stress against ced's own error estimate.
+* :func:`write_pareto_figure`: one family's Pareto figure (rule ``pareto_figure``).
 * :func:`write_accuracy_summary`: the table "to reach 10 %, 1 %, 0.1 % use … at … ms per case"
-  as CSV and markdown, and every figure (rule ``convergence_summary``).
+  as CSV and markdown, and the estimate figure (rule ``convergence_summary``).
 
 Same style as :mod:`ced.study.figures` (Agg back end, PNG and SVG through
 :func:`ced.study.figures.save`).
@@ -30,7 +31,7 @@ from .convergence import UNRESOLVED  # noqa: E402
 from .figures import save  # noqa: E402
 
 __all__ = ["QUANTITIES", "group_label", "pareto_front", "pareto_figure", "estimate_figure",
-           "accuracy_markdown", "write_accuracy_summary"]
+           "accuracy_markdown", "write_pareto_figure", "write_accuracy_summary"]
 
 #: Panels of :func:`pareto_figure`: (error variable, reference variable, title, unit, scale).
 QUANTITIES = (
@@ -452,14 +453,30 @@ def accuracy_markdown(datasets: dict[str, xr.Dataset], table, validation: dict) 
     return "\n".join(lines) + "\n"
 
 
+def write_pareto_figure(path: str | Path, png: str | Path, svg: str | Path) -> None:
+    """Rule ``pareto_figure``: one family's convergence file (from
+    :func:`ced.study.convergence.run_family`) → its :func:`pareto_figure` as ``png`` and ``svg``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The family's convergence file.
+    png, svg : str or Path
+        The figure files written.
+    """
+    with open_dataset(path) as ds:
+        ds = ds.load()
+    save(pareto_figure(ds), png, svg)
+
+
 def write_accuracy_summary(paths: list[str], csv: str | Path, markdown: str | Path,
-                           figures: dict[str, tuple[str, str]],
                            estimate: tuple[str, str] | None = None) -> None:
     """Rule ``convergence_summary``: the family files ``paths`` (from
     :func:`ced.study.convergence.run_family`) → :func:`ced.study.convergence.accuracy_table`
     as ``csv`` and, with :func:`ced.study.convergence.estimate_validation` and the references,
-    as ``markdown``; one :func:`pareto_figure` per family into ``figures[family] = (png, svg)``;
-    :func:`estimate_figure` into ``estimate`` if given.
+    as ``markdown``; :func:`estimate_figure` into ``estimate`` if given. The families' Pareto
+    figures are their own rule (:func:`write_pareto_figure`), so that each is drawn as soon as
+    its family is done rather than all at the end.
 
     Parameters
     ----------
@@ -467,8 +484,6 @@ def write_accuracy_summary(paths: list[str], csv: str | Path, markdown: str | Pa
         The families' convergence files.
     csv, markdown : str or Path
         The table files written.
-    figures : dict of str to (str, str)
-        Family -> (PNG, SVG) of its Pareto figure.
     estimate : (str, str), optional
         PNG and SVG of the estimate figure.
     """
@@ -484,7 +499,5 @@ def write_accuracy_summary(paths: list[str], csv: str | Path, markdown: str | Pa
     table.to_csv(csv, index=any(n is not None for n in table.index.names),
                  float_format="%.6g")
     Path(markdown).write_text(accuracy_markdown(datasets, table, estimate_validation(datasets)))
-    for family, (png, svg) in figures.items():
-        save(pareto_figure(datasets[family]), png, svg)
     if estimate is not None:
         save(estimate_figure(datasets), *estimate)

@@ -11,7 +11,7 @@ import xarray as xr
 
 from ced.study.convergence_figures import (QUANTITIES, accuracy_markdown, estimate_figure,
                                            group_label, pareto_figure, pareto_front,
-                                           write_accuracy_summary)
+                                           write_accuracy_summary, write_pareto_figure)
 from ced.study.convergence import UNRESOLVED
 
 GROUPS = [("euler_bernoulli", 0, "newmark"), ("euler_bernoulli", 4, "generalized_alpha"),
@@ -199,8 +199,9 @@ def test_accuracy_markdown_references_and_validation():
 
 
 def test_write_accuracy_summary(tmp_path):
-    """The rule's entry point: CSV and markdown (ced.study.convergence.accuracy_table and
-    estimate_validation) and every figure, from family files written by ced.io."""
+    """The rules' entry points: CSV and markdown (ced.study.convergence.accuracy_table and
+    estimate_validation) and the estimate figure; each family's Pareto figure on its own, from
+    family files written by ced.io."""
     from ced.io import write_dataset
 
     paths, figures = [], {}
@@ -208,9 +209,10 @@ def test_write_accuracy_summary(tmp_path):
         paths.append(str(write_dataset(synthetic(family, seed=k),
                                        tmp_path / "convergence" / f"{family}.nc")))
         figures[family] = (str(tmp_path / f"{family}.png"), str(tmp_path / f"{family}.svg"))
+        write_pareto_figure(paths[-1], *figures[family])
     estimate = (str(tmp_path / "estimate.png"), str(tmp_path / "estimate.svg"))
     write_accuracy_summary(paths, tmp_path / "t" / "accuracy.csv", tmp_path / "t" / "accuracy.md",
-                           figures, estimate)
+                           estimate)
     csv = pd.read_csv(tmp_path / "t" / "accuracy.csv")
     assert sorted(set(csv.family)) == ["crank_rocker", "slider_crank"]
     assert len(csv) == 2 * 3  # a row per (family, target 10 %, 1 %, 0.1 %)

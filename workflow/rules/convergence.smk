@@ -30,8 +30,31 @@ rule convergence_family:
         "../scripts/convergence_family.py"
 
 
+rule pareto_figure:
+    """One family's Pareto plot (error against solve time), as soon as its sweep is done."""
+    input:
+        "results/{study}/convergence/{family}.nc",
+    output:
+        png=report(
+            "results/{study}/figures/accuracy/{family}.png",
+            caption="../report/accuracy_pareto.rst",
+            category="What accuracy costs in time",
+            labels={"figure": "Pareto {family}", "format": "PNG"},
+        ),
+        svg="results/{study}/figures/accuracy/{family}.svg",
+    log:
+        "results/{study}/logs/figures/accuracy/{family}.log",
+    wildcard_constraints:
+        family="|".join(map(_re.escape, CONVERGENCE_FAMILIES)) or "none",
+    resources:
+        mem_mb=lambda wildcards, attempt: 1000 * attempt,
+        runtime=lambda wildcards, attempt: 10 * attempt,
+    script:
+        "../scripts/pareto_figure.py"
+
+
 rule convergence_summary:
-    """All families: accuracy table (cheapest setting per target), Pareto plots, estimates."""
+    """All families: accuracy table (cheapest setting per target) and the error-estimate check."""
     input:
         expand("results/{{study}}/convergence/{family}.nc", family=CONVERGENCE_FAMILIES),
     output:
@@ -47,18 +70,6 @@ rule convergence_summary:
             category="What accuracy costs in time",
             labels={"figure": "accuracy table", "format": "markdown"},
         ),
-        png=[
-            report(
-                f"results/{{study}}/figures/accuracy/{family}.png",
-                caption="../report/accuracy_pareto.rst",
-                category="What accuracy costs in time",
-                labels={"figure": f"Pareto {family}", "format": "PNG"},
-            )
-            for family in CONVERGENCE_FAMILIES
-        ],
-        svg=expand(
-            "results/{{study}}/figures/accuracy/{family}.svg", family=CONVERGENCE_FAMILIES
-        ),
         estimate_png=report(
             "results/{study}/figures/accuracy/estimate.png",
             caption="../report/accuracy_estimate.rst",
@@ -68,8 +79,6 @@ rule convergence_summary:
         estimate_svg="results/{study}/figures/accuracy/estimate.svg",
     log:
         "results/{study}/logs/tables/accuracy.log",
-    params:
-        families=CONVERGENCE_FAMILIES,
     resources:
         mem_mb=lambda wildcards, attempt: 1000 * attempt,
         runtime=lambda wildcards, attempt: 10 * attempt,

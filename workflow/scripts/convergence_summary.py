@@ -1,5 +1,5 @@
-"""Rule convergence_summary: accuracy table (CSV, markdown), Pareto plot per family and the
-error-estimate check, from the families' convergence files.
+"""Rule convergence_summary: accuracy table (CSV, markdown) and the error-estimate check, from
+the families' convergence files.
 
 On its own, for debugging: python workflow/scripts/convergence_summary.py [CONFIG.yaml]
 """
@@ -14,10 +14,5 @@ sys.stderr = open(snakemake.log[0], "w")
 
 from ced.study.convergence_figures import write_accuracy_summary  # noqa: E402
 
-families = list(snakemake.params.families)
-png, svg = snakemake.output.png, snakemake.output.svg
-png, svg = ([png], [svg]) if isinstance(png, str) else (list(png), list(svg))
-write_accuracy_summary(
-    list(snakemake.input), snakemake.output.csv, snakemake.output.md,
-    dict(zip(families, zip(png, svg))),
-    (snakemake.output.estimate_png, snakemake.output.estimate_svg))
+write_accuracy_summary(list(snakemake.input), snakemake.output.csv, snakemake.output.md,
+                       (snakemake.output.estimate_png, snakemake.output.estimate_svg))
