@@ -58,8 +58,16 @@ def _near_singular(batch: Batch) -> np.ndarray:
     rocks = np.isfinite(batch.amplitude)[:, None]
     amplitude = np.where(rocks, batch.amplitude[:, None], 0.0)
     angle = batch.initial_angle[:, None] + np.where(rocks, amplitude * np.sin(phase), phase)
-    worst = np.array([transmission(describe(scene["mechanism"]), angle[c]).min()
-                      for c, scene in enumerate(batch.scenes)])
+    descriptions = batch.descriptions or [describe(s["mechanism"]) for s in batch.scenes]
+    # The cases of a speed sweep share their mechanism and input range: one minimum for
+    # them all (keyed by repr, which tells every float apart and makes NaN equal to NaN).
+    kept: dict[str, float] = {}
+    worst = np.empty(batch.size)
+    for c, description in enumerate(descriptions):
+        key = repr((description, batch.initial_angle[c], batch.amplitude[c]))
+        if key not in kept:
+            kept[key] = transmission(description, angle[c]).min()
+        worst[c] = kept[key]
     return worst < NEAR_SINGULAR_SIN
 
 
