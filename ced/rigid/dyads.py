@@ -46,7 +46,8 @@ def point_motion(base, angle, velocity, acceleration, local):
         Position, velocity and acceleration of the point.
     """
     x, y = local[:, None, 0, None], local[:, None, 1, None]
-    r = x * unit(angle) + y * perp(angle)  # R(θ) local, global
+    c, s = np.cos(angle), np.sin(angle)  # once: unit(θ) and perp(θ) share them
+    r = x * np.stack([c, s], axis=-1) + y * np.stack([-s, c], axis=-1)  # R(θ) local, global
     r_perp = np.stack([-r[..., 1], r[..., 0]], axis=-1)
     w, al = velocity[..., None], acceleration[..., None]
     return (base[0] + r, base[1] + w * r_perp, base[2] + al * r_perp - w * w * r)
@@ -64,14 +65,15 @@ def _rrr(P, Q, l1, l2, branch):
     # A dyad that assembles over the whole motion has its two solutions meet only where the
     # loop passes a change point: there the one continuing straight through is kept.
     th1 = np.unwrap(track_branch(candidates, start, np.ones(len(l1), bool)), axis=1)
-    M = P[0] + l1[..., None] * unit(th1)
+    e1 = unit(th1)
+    M = P[0] + l1[..., None] * e1
     diff = M - Q[0]
     th2 = np.unwrap(np.arctan2(diff[..., 1], diff[..., 0]), axis=1)
     # l1 ω1 e⊥1 − l2 ω2 e⊥2 = vQ − vP, dotted with e2 and e1 (e⊥i·ej = sin(θj − θi)).
     s21 = np.sin(th2 - th1)
     singular = np.abs(s21) < SINGULAR_SIN
     safe = np.where(singular, 1.0, s21)
-    e1, e2 = unit(th1), unit(th2)
+    e2 = unit(th2)
     dv = Q[1] - P[1]
     w1 = _dot(dv, e2) / (l1 * safe)
     w2 = _dot(dv, e1) / (l2 * safe)
