@@ -80,6 +80,11 @@ def build_model(batch: Batch) -> Model:
              if formulation == "plane_stress" else {})
     flexible_matrices = _flexible_links(batch, element, n_el, stations, flexible, extra)
     for i, name in enumerate(topo.links):
+        if name in topo.points.values():
+            # A ternary link (rigid): its matrices are its bars', built by _ternary_links
+            # below; the (u0, v0, φ) of a rigid link, its ends following from them.
+            links[name], sizes[name], ends[name] = None, 3, ((0, 1), (0, 1))
+            continue
         par = {key: batch.link_property(name, "material", key) for key in ("E", "G", "rho")}
         sec = {key: batch.link_property(name, "section", key)
                for key in ("area", "second_moment", "height", "shear_coefficient")}
