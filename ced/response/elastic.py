@@ -53,20 +53,19 @@ def _near_singular(batch: Batch) -> np.ndarray:
                              batch.initial_angle, batch.amplitude)
     if batch.mechanism_type in ("slider_crank", "single_link"):
         return np.zeros(batch.size, bool)
-    # The input's angle over one period, Ωt from 0 to 2π (kinematics.input_motion's).
-    phase = np.linspace(0.0, 2.0 * math.pi, ASSEMBLY_SAMPLES)[None, :]
-    rocks = np.isfinite(batch.amplitude)[:, None]
-    amplitude = np.where(rocks, batch.amplitude[:, None], 0.0)
-    angle = batch.initial_angle[:, None] + np.where(rocks, amplitude * np.sin(phase), phase)
+    phase = np.linspace(0.0, 2.0 * math.pi, ASSEMBLY_SAMPLES)
     descriptions = batch.descriptions or [describe(s["mechanism"]) for s in batch.scenes]
     # The cases of a speed sweep share their mechanism and input range: one minimum for
     # them all (keyed by repr, which tells every float apart and makes NaN equal to NaN).
     kept: dict[str, float] = {}
     worst = np.empty(batch.size)
     for c, description in enumerate(descriptions):
-        key = repr((description, batch.initial_angle[c], batch.amplitude[c]))
+        initial, amplitude = batch.initial_angle[c], batch.amplitude[c]
+        key = repr((description, initial, amplitude))
         if key not in kept:
-            kept[key] = transmission(description, angle[c]).min()
+            # The input's angle over one period, Ωt from 0 to 2π (kinematics.input_motion's).
+            angle = initial + (amplitude * np.sin(phase) if np.isfinite(amplitude) else phase)
+            kept[key] = transmission(description, angle).min()
         worst[c] = kept[key]
     return worst < NEAR_SINGULAR_SIN
 
