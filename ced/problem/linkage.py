@@ -38,7 +38,7 @@ from typing import Any
 from .errors import Choice, Real, SceneError, Text, check_keys, join, shown
 
 __all__ = ["DYAD_KINDS", "DYAD_KEYS", "DYAD_MEANINGS", "PRESET_TYPES", "LINKAGE_FIELDS", "PRESET_FIELDS", "describe",
-           "check_description", "linkage_topology", "ternary_bars", "four_bar_loops",
+           "check_description", "linkage_topology", "ternary_bars", "bar_ends", "four_bar_loops",
            "assembly_error", "transmission", "ASSEMBLY_SAMPLES"]
 
 DYAD_KINDS = ("RRR", "RRP", "RPR")
@@ -462,6 +462,43 @@ def ternary_bars(description: Mapping, link: str, length: float) -> list[tuple[f
         if point["link"] == link and not (y == 0.0 and 0.0 <= x <= length):
             bars.append((float(x), float(y)))
     return bars
+
+
+def bar_ends(descriptions: list, link: str, lengths):
+    """:func:`ternary_bars` of ``link`` for a batch of descriptions of one structure, as
+    arrays: the same bars for every case, each flagged where it is made (a point that lies on
+    the link's first bar in one case is a pin there, no bar).
+
+    Parameters
+    ----------
+    descriptions : list of mapping
+        One dyad description per case (:func:`describe`), all with the same points.
+    link : str
+        The link's name.
+    lengths : array_like, (case,)
+        Distance from its first to its second joint, m.
+
+    Returns
+    -------
+    ends : ndarray, (case, bar, 2)
+        Far ends of the bars in the link frame, m: the bar to the second joint first, then one
+        per point of the link in the descriptions' order.
+    made : ndarray, (case, bar)
+        bool: the bar is part of the link (:func:`ternary_bars` lists exactly these).
+    """
+    import numpy as np  # lazy, as in transmission: only the batched callers need it
+
+    length = np.asarray(lengths, float)
+    names = [name for name, point in descriptions[0].get("points", {}).items()
+             if point["link"] == link]
+    ends = np.zeros((len(length), 1 + len(names), 2))
+    ends[:, 0, 0] = length
+    if names:
+        ends[:, 1:] = [[d["points"][name]["at"] for name in names] for d in descriptions]
+    x, y = ends[..., 0], ends[..., 1]
+    made = ~((y == 0.0) & (0.0 <= x) & (x <= length[:, None]))
+    made[:, 0] = True
+    return ends, made
 
 
 def four_bar_loops(mech: Mapping) -> list[tuple[float, float, float, float]]:

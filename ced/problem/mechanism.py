@@ -319,7 +319,24 @@ def assembly_error(mechanism: dict, amplitude: float = 1.0) -> str | None:
     return f"unknown mechanism type {kind!r}; allowed: {sorted(_TOPOLOGIES)}"
 
 
+#: Assembly checks kept by :func:`_linkage_assembly_error` (cleared when full).
+_KEPT_CHECKS = 64
+_checks_kept: dict[tuple[str, float], str | None] = {}
+
+
 def _linkage_assembly_error(mechanism: dict, amplitude: float) -> str | None:
+    """:func:`_check_linkage` of a mechanism and drive amplitude, kept by value: the scenes of
+    a speed sweep share their mechanism, and checking it again costs ~60 µs a scene (the
+    sampled angles, the description's key for its placements) against ~3 µs."""
+    key = (repr(mechanism), float(amplitude))
+    if key not in _checks_kept:
+        if len(_checks_kept) >= _KEPT_CHECKS:
+            _checks_kept.clear()
+        _checks_kept[key] = _check_linkage(mechanism, amplitude)
+    return _checks_kept[key]
+
+
+def _check_linkage(mechanism: dict, amplitude: float) -> str | None:
     from .linkage import ASSEMBLY_SAMPLES, assembly_error as dyads_error, describe
 
     if mechanism["type"] == "linkage":

@@ -394,12 +394,21 @@ def _links(value: Any, names: tuple[str, ...], rigid: Mapping[str, str] | None =
     default.update({f: (v, f"links.default.{f}") for f, v in entries["default"].items()})
 
     out = {}
+    # (material path, section path) -> resolved: a link that inherits its material and
+    # section resolves to the same values as every other that does, so each place where one
+    # is written is resolved once per scene (a six-bar's six blocks cost a four-bar's four).
+    resolved: dict[tuple[str, str], tuple[dict, dict]] = {}
     for key in ("default",) + names:
         merged = dict(default)
         if key != "default":
             merged.update({f: (v, f"links.{key}.{f}") for f, v in entries[key].items()})
-        material = resolve_material(*merged["material"])
-        section = section_properties(merged["section"][0], material["nu"], merged["section"][1])
+        where = (merged["material"][1], merged["section"][1])
+        if where not in resolved:
+            material = resolve_material(*merged["material"])
+            resolved[where] = material, section_properties(
+                merged["section"][0], material["nu"], merged["section"][1])
+        # Flat dicts of numbers and names: a shallow copy keeps the links independent.
+        material, section = (dict(block) for block in resolved[where])
         flexible = Bool()(*merged["flexible"])
         if key in rigid:
             if flexible and merged["flexible"][1] == f"links.{key}.flexible":

@@ -80,6 +80,11 @@ def build_model(batch: Batch) -> Model:
              if formulation == "plane_stress" else {})
     flexible_matrices = _flexible_links(batch, element, n_el, stations, flexible, extra)
     for i, name in enumerate(topo.links):
+        if name in topo.points.values():
+            # A ternary link (rigid): its matrices are its bars', built by _ternary_links
+            # below; the (u0, v0, φ) of a rigid link, its ends following from them.
+            links[name], sizes[name], ends[name] = None, 3, ((0, 1), (0, 1))
+            continue
         par = {key: batch.link_property(name, "material", key) for key in ("E", "G", "rho")}
         sec = {key: batch.link_property(name, "section", key)
                for key in ("area", "second_moment", "height", "shear_coefficient")}
@@ -202,9 +207,9 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
     topo = batch.topology
     if not topo.points:
         return None, None
-    from ..problem.linkage import describe, ternary_bars
+    from ..problem.linkage import bar_ends, describe
 
-    descriptions = [describe(s["mechanism"]) for s in batch.scenes]
+    descriptions = batch.descriptions or [describe(s["mechanism"]) for s in batch.scenes]
     points = {j: np.array([d["points"][j]["at"] for d in descriptions], float)
               for j in topo.points}
     ternary = {}
@@ -214,12 +219,12 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
                (("material", "rho"), ("section", "area"), ("section", "second_moment"))}
         n = batch.size
         mass, trans, gyro = (np.zeros((n, 3, 3)) for _ in range(3))
-        bars = [ternary_bars(descriptions[c], name, batch.link_lengths[c, i]) for c in range(n)]
+        all_ends, made = bar_ends(descriptions, name, batch.link_lengths[:, i])
         # Bar k of every case at once (a case whose point lies on the bar has one bar fewer:
         # those go case by case).
-        same = all(len(b) == len(bars[0]) for b in bars)
-        groups = ([(np.arange(n), [b[k] for b in bars]) for k in range(len(bars[0]))] if same
-                  else [([c], [xy]) for c in range(n) for xy in bars[c]])
+        groups = ([(np.arange(n), all_ends[:, k]) for k in range(made.shape[1])] if made.all()
+                  else [([c], all_ends[c, k:k + 1]) for c in range(n)
+                        for k in np.flatnonzero(made[c])])
         for cases, ends in groups:
             x, y = np.asarray(ends, float).T
             length = np.hypot(x, y)
@@ -289,7 +294,8 @@ def _ternary_loads(model: Model, name: str, motion, forces, g, has_inertia: bool
         if carrier[j] == name:
             mp = model.batch.bodies.point_mass[:, k][:, None, None]
             f = f + mp * (g - acc(k))
-        stiffness = stiffness + np.sum(local(f) * arm[:, None, :], axis=-1)
+        fl = local(f)  # F·r written out: a sum over an axis of 2 loops per pair
+        stiffness = stiffness + (fl[..., 0] * arm[:, None, 0] + fl[..., 1] * arm[:, None, 1])
     return force, moment, stiffness
 
 

@@ -22,6 +22,12 @@ def _column(descriptions: list[dict], get) -> np.ndarray:
     return np.array([get(d) for d in descriptions], float)
 
 
+def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u·v over the last axis (of length 2), written out: numpy's sum over an axis of length
+    2 runs its reduction loop once per pair, ~10× the two products (the same bits)."""
+    return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
+
+
 def point_motion(base, angle, velocity, acceleration, local):
     """Position, velocity and acceleration of a point fixed in a moving link frame.
 
@@ -40,7 +46,8 @@ def point_motion(base, angle, velocity, acceleration, local):
         Position, velocity and acceleration of the point.
     """
     x, y = local[:, None, 0, None], local[:, None, 1, None]
-    r = x * unit(angle) + y * perp(angle)  # R(θ) local, global
+    c, s = np.cos(angle), np.sin(angle)  # once: unit(θ) and perp(θ) share them
+    r = x * np.stack([c, s], axis=-1) + y * np.stack([-s, c], axis=-1)  # R(θ) local, global
     r_perp = np.stack([-r[..., 1], r[..., 0]], axis=-1)
     w, al = velocity[..., None], acceleration[..., None]
     return (base[0] + r, base[1] + w * r_perp, base[2] + al * r_perp - w * w * r)
@@ -58,21 +65,22 @@ def _rrr(P, Q, l1, l2, branch):
     # A dyad that assembles over the whole motion has its two solutions meet only where the
     # loop passes a change point: there the one continuing straight through is kept.
     th1 = np.unwrap(track_branch(candidates, start, np.ones(len(l1), bool)), axis=1)
-    M = P[0] + l1[..., None] * unit(th1)
+    e1 = unit(th1)
+    M = P[0] + l1[..., None] * e1
     diff = M - Q[0]
     th2 = np.unwrap(np.arctan2(diff[..., 1], diff[..., 0]), axis=1)
     # l1 ω1 e⊥1 − l2 ω2 e⊥2 = vQ − vP, dotted with e2 and e1 (e⊥i·ej = sin(θj − θi)).
     s21 = np.sin(th2 - th1)
     singular = np.abs(s21) < SINGULAR_SIN
     safe = np.where(singular, 1.0, s21)
-    e1, e2 = unit(th1), unit(th2)
+    e2 = unit(th2)
     dv = Q[1] - P[1]
-    w1 = np.sum(dv * e2, axis=-1) / (l1 * safe)
-    w2 = np.sum(dv * e1, axis=-1) / (l2 * safe)
+    w1 = _dot(dv, e2) / (l1 * safe)
+    w2 = _dot(dv, e1) / (l2 * safe)
     w1, w2 = fill_singular(w1, singular), fill_singular(w2, singular)
     da = Q[2] - P[2] + (l1 * w1 * w1)[..., None] * e1 - (l2 * w2 * w2)[..., None] * e2
-    al1 = np.sum(da * e2, axis=-1) / (l1 * safe)
-    al2 = np.sum(da * e1, axis=-1) / (l2 * safe)
+    al1 = _dot(da, e2) / (l1 * safe)
+    al2 = _dot(da, e1) / (l2 * safe)
     al1, al2 = fill_singular(al1, singular), fill_singular(al2, singular)
     return (th1, w1, al1), (th2, w2, al2), singular
 
@@ -81,14 +89,14 @@ def _rrp(P, length, guide_angle, guide_point, branch):
     """Place an RRP dyad: the link P→M with M on the fixed guide; angle, rate, acceleration."""
     phi = guide_angle[:, None]
     n = perp(phi)  # guide normal, (case, 1, 2)
-    height = np.sum((P[0] - guide_point[:, None]) * n, axis=-1)
+    height = _dot(P[0] - guide_point[:, None], n)
     # n·(M − P) = −h with M − P = l e1: sin(θ1 − φ) = −h/l, cos(θ1 − φ) = ±√(1 − sin²).
     sin_rel = -height / length
     cos_rel = branch * np.sqrt(np.clip(1.0 - sin_rel**2, 0.0, None))
     th = np.unwrap(np.arctan2(sin_rel, cos_rel), axis=1) + phi
     # n·vM = 0 and n·aM = 0 on a fixed guide (n·e⊥1 = cos(θ1 − φ), n·e1 = sin(θ1 − φ)).
-    w = -np.sum(P[1] * n, axis=-1) / (length * cos_rel)
-    al = (-np.sum(P[2] * n, axis=-1) + length * w * w * sin_rel) / (length * cos_rel)
+    w = -_dot(P[1], n) / (length * cos_rel)
+    al = (-_dot(P[2], n) + length * w * w * sin_rel) / (length * cos_rel)
     return th, w, al
 
 
@@ -103,16 +111,16 @@ def _rpr(P, Q, offset):
     aQ − aP = (s̈ − e α − s ω²) e1 + (2 ṡ ω − e ω² + s α) e⊥1, each dotted with e⊥1 and e1.
     """
     d = Q[0] - P[0]
-    dist2 = np.sum(d * d, axis=-1)
+    dist2 = _dot(d, d)
     e = offset[:, None]
     s = np.sqrt(np.clip(dist2 - e * e, 0.0, None))
     th = np.unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s), axis=1)
     e1, n1 = unit(th), perp(th)
     dv, da = Q[1] - P[1], Q[2] - P[2]
-    w = np.sum(dv * n1, axis=-1) / s
-    ds = np.sum(dv * e1, axis=-1) + e * w
-    al = (np.sum(da * n1, axis=-1) - 2.0 * ds * w + e * w * w) / s
-    dds = np.sum(da * e1, axis=-1) + e * al + s * w * w
+    w = _dot(dv, n1) / s
+    ds = _dot(dv, e1) + e * w
+    al = (_dot(da, n1) - 2.0 * ds * w + e * w * w) / s
+    dds = _dot(da, e1) + e * al + s * w * w
     return (th, w, al), (s, ds, dds)
 
 

@@ -233,8 +233,10 @@ def make_dataset(
             if name.endswith("_auto"):  # JSON: a case not chosen automatically reads null
                 values = np.array([v or "null" for v in values.tolist()], dtype=object)
         else:
+            # Not copied when already stored as such (the station fields, most of the bytes,
+            # come float32 from the solver; a six-bar's five links carry 5/3 of a four-bar's).
             with np.errstate(over="ignore"):  # a failed case may overflow float32: inf
-                values = values.astype(dtype)
+                values = values.astype(dtype, copy=False)
         attrs = {"long_name": long_name}
         if dtype != "str":
             attrs["units"] = units

@@ -149,8 +149,8 @@ def _nonfinite(result: dict[str, np.ndarray]) -> dict[int, list[str]]:
         dtype = VARIABLES[name][3]
         if dtype not in ("float32", "float64"):
             continue
-        with np.errstate(over="ignore", invalid="ignore"):
-            stored = np.asarray(values).astype(dtype)
+        with np.errstate(over="ignore", invalid="ignore"):  # as stored; no copy if it is
+            stored = np.asarray(values).astype(dtype, copy=False)
         finite = np.isfinite(stored).reshape(len(stored), -1).all(axis=1)
         for case in np.flatnonzero(~finite):
             bad.setdefault(int(case), []).append(name)
