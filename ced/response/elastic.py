@@ -10,10 +10,12 @@ status flags. Everything is vectorized across the cases of the batch.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from ..fem.recovery import deflection, link_fields, peaks
+from ..fem.recovery_kernel import recover
 from ..problem.errors import SceneError
 from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
@@ -258,7 +260,38 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
     (without ``qz_static``: none).
 
     The station fields are returned in float32, as they are stored; the peaks are taken from
-    the float64 values first. ``fields=False`` returns the peaks alone."""
+    the float64 values first. ``fields=False`` returns the peaks alone. One compiled pass per
+    case (:func:`ced.fem.recovery_kernel.recover`); ``CED_KERNEL=numpy`` takes the numpy path
+    (:func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks`), the reference
+    the kernel is tested against."""
+    if os.environ.get("CED_KERNEL", "numba") == "numpy":
+        return _recover_numpy(model, qz, qz_static, fields)
+    batch, layout = model.batch, model.layout
+    links = layout.topology.links
+    zero = np.zeros(batch.size)
+    height, E = (np.stack([batch.link_property(name, group, key) if name in model.recovery
+                           else zero for name in links], axis=1)
+                 for group, key in (("section", "height"), ("material", "E")))
+    out = recover(qz, [layout.link_offsets[name] for name in links],
+                  [model.recovery.get(name) for name in links], model.stations, height, E,
+                  fields, qz_static)
+    static_peak = out.pop("static_peak_deflection", None)
+    if static_peak is not None:
+        out["dynamic_amplification"] = _amplification(out["peak_deflection"], static_peak)
+    return out
+
+
+def _amplification(peak: np.ndarray, static_peak: np.ndarray) -> np.ndarray:
+    """Dynamic amplification (case, link): peak / quasi-static peak deflection, 1 where the
+    latter is zero (a rigid link)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(static_peak > 0, peak / static_peak, 1.0)
+
+
+def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
+                   fields: bool = True) -> dict[str, np.ndarray]:
+    """:func:`_recover` through numpy (``CED_KERNEL=numpy``): the link fields by batched
+    matmul, the peaks by :func:`ced.fem.recovery.peaks`."""
     batch, layout = model.batch, model.layout
     topo = layout.topology
     ncase, nout = qz.shape[:2]
@@ -288,8 +321,7 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
             static_peak[:, i] = peaks(static[:, :, None])[:, 0]
     out = {**stored, "peak_deflection": peak, "peak_stress": peak_stress}
     if qz_static is not None:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out["dynamic_amplification"] = np.where(static_peak > 0, peak / static_peak, 1.0)
+        out["dynamic_amplification"] = _amplification(peak, static_peak)
     return out
 
 
