@@ -17,7 +17,7 @@ products (BLAS's against a plain loop): the fields and peaks agree with it to ro
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numba as nb
 import numpy as np
@@ -205,10 +205,23 @@ def _pack(operators: Sequence[Mapping[str, np.ndarray] | None], ncase: int, nst:
     return sizes, first_col, sizes > 0, ops
 
 
+def _output(allocate, name: str, shape: tuple) -> np.ndarray:
+    """A float32 output of ``shape`` from ``allocate`` (checked) or :func:`numpy.empty`."""
+    if allocate is None or not all(shape):
+        return np.empty(shape, np.float32)
+    out = allocate(name, shape, np.float32)
+    if out.shape != shape or out.dtype != np.float32 or not out.flags.c_contiguous:
+        raise ValueError(f"allocate gave {name} {out.shape} {out.dtype}, not a C-contiguous "
+                         f"float32 {shape}")
+    return out
+
+
 def recover(qz: np.ndarray, first_row: Sequence[int],
             operators: Sequence[Mapping[str, np.ndarray] | None], stations: np.ndarray,
             height: np.ndarray, youngs_modulus: np.ndarray, fields: bool = True,
-            qz_static: np.ndarray | None = None) -> dict[str, np.ndarray]:
+            qz_static: np.ndarray | None = None,
+            allocate: Callable[[str, tuple, type], np.ndarray] | None = None,
+            ) -> dict[str, np.ndarray]:
     """Station fields of every link and their peaks, compiled: what
     :func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks` give, link by
     link, to round-off.
@@ -234,6 +247,10 @@ def recover(qz: np.ndarray, first_row: Sequence[int],
         Return the station fields; without it the peaks alone.
     qz_static : numpy.ndarray, optional
         The quasi-static displacements, shaped as ``qz``: adds the peak of their deflection.
+    allocate : callable, optional
+        ``allocate(name, shape, dtype)`` gives the C-contiguous array a field is written into
+        (a part of a larger batch's output, so that it is not copied there afterwards);
+        :func:`numpy.empty` by default.
 
     Returns
     -------
@@ -255,8 +272,8 @@ def recover(qz: np.ndarray, first_row: Sequence[int],
     half_height = np.ascontiguousarray(0.5 * np.asarray(height, np.float64))
     E = np.ascontiguousarray(youngs_modulus, dtype=np.float64)
     shape = (ncase, n_steps, nlink, nst)
-    stored = {name: np.empty(shape if fields else (0, 0, 0, 0), np.float32) for name in FIELDS}
-    stored["stress"] = np.empty(shape + (2,) if fields else (0, 0, 0, 0, 0), np.float32)
+    stored = {name: _output(allocate, name, shape if fields else (0,) * 4) for name in FIELDS}
+    stored["stress"] = _output(allocate, "stress", shape + (2,) if fields else (0,) * 5)
     peak, peak_stress = np.empty((ncase, nlink)), np.empty((ncase, nlink))
     _recover(qz, rows, sizes, first_col, flexible, ops, xi, half_height, E, False, fields,
              *stored.values(), peak, peak_stress)

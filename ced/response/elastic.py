@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 
 import numpy as np
 
@@ -65,8 +66,9 @@ def _near_singular(batch: Batch) -> np.ndarray:
     return worst < NEAR_SINGULAR_SIN
 
 
-def elastic_response(batch: Batch, status: np.ndarray,
-                     peaks_only: bool = False) -> dict[str, np.ndarray]:
+def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
+                     allocate: Callable[[str, tuple, type], np.ndarray] | None = None,
+                     ) -> dict[str, np.ndarray]:
     """Elastic variables of the dataset (docs/reference/dataset.md) for a batch, arrays with a
     leading case axis.
 
@@ -85,6 +87,9 @@ def elastic_response(batch: Batch, status: np.ndarray,
         Status flags of the rigid analysis, shape (case,), int.
     peaks_only : bool, optional
         Return only the peaks, the modal analysis and the status.
+    allocate : callable, optional
+        ``allocate(name, shape, dtype)`` gives the arrays the station fields are written into
+        (:func:`ced.fem.recovery_kernel.recover`): parts of a larger batch's outputs.
 
     Returns
     -------
@@ -100,7 +105,7 @@ def elastic_response(batch: Batch, status: np.ndarray,
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only)
-    result.update(_recover(model, qz, qz_static, fields=not peaks_only))
+    result.update(_recover(model, qz, qz_static, not peaks_only, allocate))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
     if not peaks_only:
@@ -255,12 +260,13 @@ def _check_stable_step(model: Model, limit: float) -> None:
 
 
 def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
-             fields: bool = True) -> dict[str, np.ndarray]:
+             fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
     """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification
     (without ``qz_static``: none).
 
     The station fields are returned in float32, as they are stored; the peaks are taken from
-    the float64 values first. ``fields=False`` returns the peaks alone. One compiled pass per
+    the float64 values first, into the arrays of ``allocate`` where given (numpy's path
+    ignores it). ``fields=False`` returns the peaks alone. One compiled pass per
     case (:func:`ced.fem.recovery_kernel.recover`); ``CED_KERNEL=numpy`` takes the numpy path
     (:func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks`), the reference
     the kernel is tested against."""
@@ -274,7 +280,7 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
                  for group, key in (("section", "height"), ("material", "E")))
     out = recover(qz, [layout.link_offsets[name] for name in links],
                   [model.recovery.get(name) for name in links], model.stations, height, E,
-                  fields, qz_static)
+                  fields, qz_static, allocate)
     static_peak = out.pop("static_peak_deflection", None)
     if static_peak is not None:
         out["dynamic_amplification"] = _amplification(out["peak_deflection"], static_peak)
@@ -289,9 +295,10 @@ def _amplification(peak: np.ndarray, static_peak: np.ndarray) -> np.ndarray:
 
 
 def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
-                   fields: bool = True) -> dict[str, np.ndarray]:
+                   fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
     """:func:`_recover` through numpy (``CED_KERNEL=numpy``): the link fields by batched
-    matmul, the peaks by :func:`ced.fem.recovery.peaks`."""
+    matmul, the peaks by :func:`ced.fem.recovery.peaks`; ``allocate`` is not used (the
+    caller copies the fields)."""
     batch, layout = model.batch, model.layout
     topo = layout.topology
     ncase, nout = qz.shape[:2]
