@@ -133,7 +133,8 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
 
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
-    is solved over the period only."""
+    is solved over the period only, and, unless it is the response itself (a quasi-static
+    model), returned at the output steps of :func:`_one_period` only."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
@@ -150,8 +151,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     qz_static = None
     if full or quasi_static:
-        qz_static = _expand(layout, period, _static(period)[:, out_steps % period.period],
-                            out_steps)
+        # Beside a dynamic response only its peak is read: one period of it is enough.
+        steps = out_steps if quasi_static else _one_period(out_steps, period.period)
+        qz_static = _expand(layout, period, _static(period)[:, steps % period.period], steps)
     if quasi_static:
         return qz_static, qz_static, period
     scheme = integrator_for(time_cfg)
@@ -174,6 +176,21 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         state = start(terms, q0, v0)
     _, record = marcher.march(state, n_steps, every)
     return _expand(layout, period, record, out_steps), qz_static, period
+
+
+def _one_period(steps: np.ndarray, period: int) -> np.ndarray:
+    """The first output steps that hold every value of a ``period``-periodic history, and the
+    first repeated one (``steps`` equally spaced from 0; all of them when the spacing does not
+    divide the period or they span less).
+
+    The peak of the history at them (:func:`ced.fem.recovery.peaks`) is that at all the
+    steps, bit for bit: the first largest sample lies before the first repeated one, which is
+    its neighbour after when it is the last of the period, and a first largest sample at
+    step 0 is an end of both histories (no parabola)."""
+    spacing = int(steps[1] - steps[0]) if len(steps) > 1 else 1
+    if period % spacing:
+        return steps
+    return steps[:period // spacing + 1]
 
 
 def _static(period: PeriodTerms) -> np.ndarray:

@@ -335,3 +335,26 @@ def test_a_link_too_thick_for_a_beam_is_flagged(formulation, height, flagged):
     ds = simulate(scene)
     assert bool(ds.status.values[0] & 256) == flagged
     assert ds.status.attrs["flag_meanings"].split()[-1] == "thick_link"
+
+
+@pytest.mark.parametrize("every", [1, 2, 3, 5])
+@pytest.mark.parametrize("where", [None, 0, -1])
+def test_one_period_of_a_periodic_history_has_its_peak(every, where):
+    """The quasi-static response beside a dynamic one is kept at one period of output steps
+    (ced.response.elastic._one_period): its peak is that of the whole history, bit for bit,
+    the largest sample anywhere, at the first step or at the last of the period."""
+    from ced.fem.recovery import peaks
+    from ced.response.elastic import _one_period
+    period, rng = 30, np.random.default_rng(every)
+    phase = np.arange(period)[None, :, None, None] / period  # (case, step, link, station)
+    one = np.sin(2 * np.pi * (phase + rng.random((3, 1, 1, 4))))
+    if where is not None:
+        one[:, where] = 2.0
+    for n_steps in (12, 30, 31, 75, 90):
+        steps = np.arange(0, n_steps + 1, every)
+        history = one[:, steps % period]
+        kept = _one_period(steps, period)
+        assert np.array_equal(kept, steps[:len(kept)])
+        if period % every == 0 and n_steps >= period:
+            assert kept[-1] == period
+        assert np.array_equal(peaks(one[:, kept % period]), peaks(history))
