@@ -337,8 +337,11 @@ def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
         for key, value in stored.items():
             value[:, :, i] = link[key]
         peak[:, i] = peaks(link["deflection"][:, :, None])[:, 0]
-        # the larger magnitude of the two fibres: |axial| + |bending|
-        peak_stress[:, i] = peaks(np.abs(link["stress"]).max(axis=-1)[:, :, None])[:, 0]
+        # the larger magnitude of the two fibres: |axial| + |bending| (np.maximum of the two:
+        # numpy's max over an axis of length 2 pays its reduction loop per pair, ~40× slower)
+        stress = link["stress"]
+        larger = np.maximum(np.abs(stress[..., 0]), np.abs(stress[..., 1]))
+        peak_stress[:, i] = peaks(larger[:, :, None])[:, 0]
         if qz_static is not None:
             static = deflection(qz_static[..., rows], model.recovery[name]["v"],
                                 model.stations)
