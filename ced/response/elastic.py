@@ -10,10 +10,13 @@ status flags. Everything is vectorized across the cases of the batch.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable
 
 import numpy as np
 
 from ..fem.recovery import deflection, link_fields, peaks
+from ..fem.recovery_kernel import recover
 from ..problem.errors import SceneError
 from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
@@ -70,8 +73,9 @@ def _near_singular(batch: Batch) -> np.ndarray:
     return worst < NEAR_SINGULAR_SIN
 
 
-def elastic_response(batch: Batch, status: np.ndarray,
-                     peaks_only: bool = False) -> dict[str, np.ndarray]:
+def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
+                     allocate: Callable[[str, tuple, type], np.ndarray] | None = None,
+                     ) -> dict[str, np.ndarray]:
     """Elastic variables of the dataset (docs/reference/dataset.md) for a batch, arrays with a
     leading case axis.
 
@@ -90,6 +94,9 @@ def elastic_response(batch: Batch, status: np.ndarray,
         Status flags of the rigid analysis, shape (case,), int.
     peaks_only : bool, optional
         Return only the peaks, the modal analysis and the status.
+    allocate : callable, optional
+        ``allocate(name, shape, dtype)`` gives the arrays the station fields are written into
+        (:func:`ced.fem.recovery_kernel.recover`): parts of a larger batch's outputs.
 
     Returns
     -------
@@ -105,7 +112,7 @@ def elastic_response(batch: Batch, status: np.ndarray,
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only)
-    result.update(_recover(model, qz, qz_static, fields=not peaks_only))
+    result.update(_recover(model, qz, qz_static, not peaks_only, allocate))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
     if not peaks_only:
@@ -133,7 +140,8 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
 
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
-    is solved over the period only."""
+    is solved over the period only, and, unless it is the response itself (a quasi-static
+    model), returned at the output steps of :func:`_one_period` only."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
@@ -150,8 +158,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     qz_static = None
     if full or quasi_static:
-        qz_static = _expand(layout, period, _static(period)[:, out_steps % period.period],
-                            out_steps)
+        # Beside a dynamic response only its peak is read: one period of it is enough.
+        steps = out_steps if quasi_static else _one_period(out_steps, period.period)
+        qz_static = _expand(layout, period, _static(period)[:, steps % period.period], steps)
     if quasi_static:
         return qz_static, qz_static, period
     scheme = integrator_for(time_cfg)
@@ -174,6 +183,21 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         state = start(terms, q0, v0)
     _, record = marcher.march(state, n_steps, every)
     return _expand(layout, period, record, out_steps), qz_static, period
+
+
+def _one_period(steps: np.ndarray, period: int) -> np.ndarray:
+    """The first output steps that hold every value of a ``period``-periodic history, and the
+    first repeated one (``steps`` equally spaced from 0; all of them when the spacing does not
+    divide the period or they span less).
+
+    The peak of the history at them (:func:`ced.fem.recovery.peaks`) is that at all the
+    steps, bit for bit: the first largest sample lies before the first repeated one, which is
+    its neighbour after when it is the last of the period, and a first largest sample at
+    step 0 is an end of both histories (no parabola)."""
+    spacing = int(steps[1] - steps[0]) if len(steps) > 1 else 1
+    if period % spacing:
+        return steps
+    return steps[:period // spacing + 1]
 
 
 def _static(period: PeriodTerms) -> np.ndarray:
@@ -260,12 +284,45 @@ def _check_stable_step(model: Model, limit: float) -> None:
 
 
 def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
-             fields: bool = True) -> dict[str, np.ndarray]:
+             fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
     """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification
     (without ``qz_static``: none).
 
     The station fields are returned in float32, as they are stored; the peaks are taken from
-    the float64 values first. ``fields=False`` returns the peaks alone."""
+    the float64 values first, into the arrays of ``allocate`` where given (numpy's path
+    ignores it). ``fields=False`` returns the peaks alone. One compiled pass per
+    case (:func:`ced.fem.recovery_kernel.recover`); ``CED_KERNEL=numpy`` takes the numpy path
+    (:func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks`), the reference
+    the kernel is tested against."""
+    if os.environ.get("CED_KERNEL", "numba") == "numpy":
+        return _recover_numpy(model, qz, qz_static, fields)
+    batch, layout = model.batch, model.layout
+    links = layout.topology.links
+    zero = np.zeros(batch.size)
+    height, E = (np.stack([batch.link_property(name, group, key) if name in model.recovery
+                           else zero for name in links], axis=1)
+                 for group, key in (("section", "height"), ("material", "E")))
+    out = recover(qz, [layout.link_offsets[name] for name in links],
+                  [model.recovery.get(name) for name in links], model.stations, height, E,
+                  fields, qz_static, allocate)
+    static_peak = out.pop("static_peak_deflection", None)
+    if static_peak is not None:
+        out["dynamic_amplification"] = _amplification(out["peak_deflection"], static_peak)
+    return out
+
+
+def _amplification(peak: np.ndarray, static_peak: np.ndarray) -> np.ndarray:
+    """Dynamic amplification (case, link): peak / quasi-static peak deflection, 1 where the
+    latter is zero (a rigid link)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(static_peak > 0, peak / static_peak, 1.0)
+
+
+def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
+                   fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
+    """:func:`_recover` through numpy (``CED_KERNEL=numpy``): the link fields by batched
+    matmul, the peaks by :func:`ced.fem.recovery.peaks`; ``allocate`` is not used (the
+    caller copies the fields)."""
     batch, layout = model.batch, model.layout
     topo = layout.topology
     ncase, nout = qz.shape[:2]
@@ -298,8 +355,7 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
             static_peak[:, i] = peaks(static[:, :, None])[:, 0]
     out = {**stored, "peak_deflection": peak, "peak_stress": peak_stress}
     if qz_static is not None:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out["dynamic_amplification"] = np.where(static_peak > 0, peak / static_peak, 1.0)
+        out["dynamic_amplification"] = _amplification(peak, static_peak)
     return out
 
 

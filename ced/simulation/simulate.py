@@ -66,15 +66,29 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
         return _solve_part(batch, peaks_only)
     out: dict[str, np.ndarray] = {}
     for first in range(0, batch.size, limit):
-        part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only)
+        part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only,
+                           _into(out, batch.size, first))
         for name, value in part.items():
             if name not in out:  # filled part by part: no second copy of the histories
                 out[name] = np.empty((batch.size,) + value.shape[1:], value.dtype)
-            out[name][first:first + len(value)] = value
+            if value.base is not out[name]:  # the station fields were written in place
+                out[name][first:first + len(value)] = value
     return out
 
 
-def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:
+def _into(out: dict[str, np.ndarray], size: int, first: int):
+    """``allocate(name, shape, dtype)`` for the part of a batch of ``size`` cases that starts
+    at case ``first``: the view of the batch's output ``out[name]`` (made on first request)
+    that the part's cases fill, so that the solver writes there and nothing is copied."""
+    def allocate(name: str, shape: tuple, dtype) -> np.ndarray:
+        if name not in out:
+            out[name] = np.empty((size,) + tuple(shape[1:]), dtype)
+        return out[name][first:first + shape[0]]
+    return allocate
+
+
+def _solve_part(batch: Batch, peaks_only: bool = False,
+                allocate=None) -> dict[str, np.ndarray]:
     scene = batch.scenes[0]
     effects = scene["effects"]
     if effects == "auto":
@@ -91,7 +105,7 @@ def _solve_part(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
         raise ValueError("discretization: auto must be resolved before solving "
                          "(ced.auto.discretization.resolve_discretization, as simulate does)")
     if scene["discretization"]["formulation"] != "rigid":
-        out.update(elastic_response(batch, out["status"], peaks_only))
+        out.update(elastic_response(batch, out["status"], peaks_only, allocate))
     return out
 
 

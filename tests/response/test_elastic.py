@@ -171,6 +171,45 @@ def test_rigid_links_carry_no_strain_and_dataset_is_finite():
             assert np.all(np.isfinite(var.values)), name
 
 
+@pytest.mark.parametrize("peaks_only", [False, True])
+def test_compiled_recovery_equals_the_numpy_path(monkeypatch, peaks_only):
+    """ced.fem.recovery_kernel against ced.fem.recovery on the same responses: a rigid crank
+    between two flexible links, two cases with their own material and speed, the quasi-static
+    peaks of the dynamic amplification; the fields are float32 as stored."""
+    from ced.response import elastic
+    compiled, pairs = elastic._recover, []
+
+    def both(model, qz, qz_static, fields=True, allocate=None):
+        got = compiled(model, qz, qz_static, fields, allocate)
+        pairs.append((got, elastic._recover_numpy(model, qz, qz_static, fields)))
+        return got
+
+    monkeypatch.setattr(elastic, "_recover", both)
+    scenes = [load_scene(scene) for scene in (
+        FOUR_BAR,
+        {**FOUR_BAR, "drive": {"speed": 150.0},
+         "links": {**FOUR_BAR["links"], "default": {"material": "aluminium",
+                                                   "section": SQUARE_8MM}}})]
+    solve_batch(make_batch(scenes), peaks_only)
+    ((got, want),) = pairs
+    assert set(got) == set(want)
+    assert ("dynamic_amplification" in got) != peaks_only and ("stress" in got) != peaks_only
+    for name, value in want.items():
+        assert got[name].dtype == value.dtype and got[name].shape == value.shape, name
+        tolerance = np.spacing(np.abs(value)) if value.dtype == np.float32 else (
+            1e-13 * np.abs(value).max(axis=0))
+        assert (np.abs(got[name] - value) <= tolerance).all(), name
+    assert (got["peak_stress"][:, 0] == 0).all() and (got["peak_stress"][:, 1:] > 0).all()
+
+
+FOUR_BAR = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                          "rocker": 0.35},
+            "links": {"default": {"section": SQUARE_8MM}, "crank": {"flexible": False}},
+            "discretization": {"elements_per_link": 3},
+            "time": {"revolutions": 1, "steps_per_revolution": 96, "start": "undeformed"},
+            "outputs": {"error_estimate": False}}
+
+
 def test_coriolis_coupling_matches_rotating_frame_point_mass():
     # A nearly massless cantilever (ρ = 1 kg/m³) with a 1 kg tip mass spins at constant Ω.
     # From rest the centrifugal load excites the axial mode and only the Coriolis force
@@ -296,3 +335,26 @@ def test_a_link_too_thick_for_a_beam_is_flagged(formulation, height, flagged):
     ds = simulate(scene)
     assert bool(ds.status.values[0] & 256) == flagged
     assert ds.status.attrs["flag_meanings"].split()[-1] == "thick_link"
+
+
+@pytest.mark.parametrize("every", [1, 2, 3, 5])
+@pytest.mark.parametrize("where", [None, 0, -1])
+def test_one_period_of_a_periodic_history_has_its_peak(every, where):
+    """The quasi-static response beside a dynamic one is kept at one period of output steps
+    (ced.response.elastic._one_period): its peak is that of the whole history, bit for bit,
+    the largest sample anywhere, at the first step or at the last of the period."""
+    from ced.fem.recovery import peaks
+    from ced.response.elastic import _one_period
+    period, rng = 30, np.random.default_rng(every)
+    phase = np.arange(period)[None, :, None, None] / period  # (case, step, link, station)
+    one = np.sin(2 * np.pi * (phase + rng.random((3, 1, 1, 4))))
+    if where is not None:
+        one[:, where] = 2.0
+    for n_steps in (12, 30, 31, 75, 90):
+        steps = np.arange(0, n_steps + 1, every)
+        history = one[:, steps % period]
+        kept = _one_period(steps, period)
+        assert np.array_equal(kept, steps[:len(kept)])
+        if period % every == 0 and n_steps >= period:
+            assert kept[-1] == period
+        assert np.array_equal(peaks(one[:, kept % period]), peaks(history))

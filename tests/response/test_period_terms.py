@@ -110,3 +110,22 @@ def test_quasi_static_response_from_the_samples_matches_every_step():
     sampled = _static(terms)
     scale = np.abs(exact).max(axis=(1, 2))
     assert (np.abs(sampled - exact).max(axis=(1, 2)) <= 10 * TOLERANCE * scale).all()
+
+
+def test_written_out_ten_point_sum_equals_the_generic_loop():
+    """The compiled interpolation writes the 10-point stencil's sum out (one store per entry);
+    the generic loop, given the same stencil and a zero-weight eleventh point, gives the same
+    bits, and both are the stencil's sum."""
+    from ced.response.period_terms import _interpolate
+    assert STENCIL == 10
+    rng = np.random.default_rng(7)
+    samples, points = 16, np.sort(rng.uniform(0.0, 16.0, 40))
+    values = rng.standard_normal((3, samples, 23))
+    index, weight = interpolation_weights(points, samples)
+    written, generic = np.empty((3, 40, 23)), np.empty((3, 40, 23))
+    _interpolate(values, index, weight, written)
+    _interpolate(values, np.concatenate([index, index[:, :1]], axis=1),
+                 np.concatenate([weight, np.zeros((40, 1))], axis=1), generic)
+    assert np.array_equal(written, generic)
+    want = np.einsum("mj,cmjd->cmd", weight, values[:, index])
+    assert np.allclose(written, want, rtol=1e-13, atol=1e-13)
