@@ -92,7 +92,7 @@ def deflection(q: np.ndarray, operator_v: np.ndarray, stations: np.ndarray) -> n
     return v - ((1.0 - xi) * v[..., :1] + xi * v[..., -1:])
 
 
-def peaks(field: np.ndarray) -> np.ndarray:
+def peaks(field: np.ndarray, periodic: bool = False) -> np.ndarray:
     """Peak absolute value over time and stations: (case, step, link, station) → (case, link).
 
     The peak in time is taken between samples: a parabola through the largest sample and its
@@ -107,6 +107,9 @@ def peaks(field: np.ndarray) -> np.ndarray:
     field : numpy.ndarray
         A recovered field (stress in Pa, deflection in m, …), shape (case, step, link, station),
         sampled at equally spaced steps.
+    periodic : bool, optional
+        The steps sample one period of a periodic history (the step after the last is the
+        first): the parabola wraps around instead of stopping at the ends.
 
     Returns
     -------
@@ -118,9 +121,9 @@ def peaks(field: np.ndarray) -> np.ndarray:
     k = magnitude.argmax(axis=1)  # (case, link, station)
     peak = np.take_along_axis(magnitude, k[:, None], axis=1)[:, 0]
     if n >= 3:
-        inner = np.clip(k, 1, n - 2)
-        before = np.take_along_axis(magnitude, inner[:, None] - 1, axis=1)[:, 0]
-        after = np.take_along_axis(magnitude, inner[:, None] + 1, axis=1)[:, 0]
+        inner = k if periodic else np.clip(k, 1, n - 2)
+        before = np.take_along_axis(magnitude, (inner[:, None] - 1) % n, axis=1)[:, 0]
+        after = np.take_along_axis(magnitude, (inner[:, None] + 1) % n, axis=1)[:, 0]
         curvature = 2.0 * peak - before - after
         interior = (k == inner) & (curvature > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):

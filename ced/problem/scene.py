@@ -60,6 +60,7 @@ __all__ = [
     "DEFAULT_EFFECTS",
     "FORMULATIONS",
     "INTEGRATORS",
+    "PERIODIC_SOLVERS",
     "MECHANISM_TYPES",
     "SCENE_KEYS",
 ]
@@ -72,6 +73,7 @@ DEFAULT_EFFECTS = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axi
 FORMULATIONS = ("euler_bernoulli", "timoshenko", "seed_lame", "plane_stress", "rigid")
 INTEGRATORS = ("newmark", "hht", "generalized_alpha", "houbolt")
 STARTS = ("undeformed", "quasi_static", "periodic")
+PERIODIC_SOLVERS = ("shooting", "spectral")
 MECHANISM_TYPES = ("four_bar", "slider_crank", "single_link", "watt_ii", "stephenson_iii",
                    "linkage")
 AUTO = "auto"
@@ -160,6 +162,7 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
         "gamma": (Real(low=0.5, high=1.0), 0.5),
         "alpha": (Real(low=-1.0 / 3.0, high=0.0), -0.05),
         "start": (Choice(STARTS), "undeformed"),
+        "periodic_solver": (Choice(PERIODIC_SOLVERS), "shooting"),
     },
     "modal": {
         "modes": (Int(1, 1000), 6),
@@ -272,7 +275,11 @@ MEANINGS: dict[str, str] = {
     "time.gamma": "Newmark γ (used with newmark)",
     "time.alpha": "HHT α (used with hht)",
     "time.start": "initial elastic state: undeformed (q = q̇ = 0), quasi_static, or periodic "
-                  "(the periodic steady state by shooting, with Floquet multipliers)",
+                  "(the periodic steady state, with Floquet multipliers)",
+    "time.periodic_solver": "how a periodic start finds the steady state: shooting (the "
+                            "integrator over one period, exact for its steps) or spectral "
+                            "(Fourier collocation, as many harmonics as the response needs; "
+                            "the steps set only the output instants)",
     "modal": "natural frequencies of the frozen linkage over the cycle; absent or null: none",
     "modal.modes": "number of natural frequencies computed at each phase",
     "modal.angles": "number of evenly spaced phases of the input cycle analysed",
@@ -460,6 +467,20 @@ def _time(value: Any) -> dict:
     return block
 
 
+def _spectral_allowed(scene: dict) -> None:
+    """``time.periodic_solver: spectral`` solves the periodic steady state of a dynamic model
+    for a discretization given in full (``discretization: auto`` chooses steps per revolution,
+    which the spectral solver does not use)."""
+    if scene["time"]["start"] != "periodic":
+        raise SceneError("time.periodic_solver", f"spectral finds a periodic steady state: it "
+                                                 f"needs time.start: periodic (got "
+                                                 f"{scene['time']['start']!r}); use shooting")
+    if scene["discretization"] == AUTO:
+        raise SceneError("time.periodic_solver", "spectral is not available with "
+                                                 "discretization: auto (its ladder refines the "
+                                                 "steps); give the discretization or use shooting")
+
+
 def _normalize(raw: Any) -> dict:
     if not isinstance(raw, Mapping):
         kind = "empty" if raw is None else type(raw).__name__
@@ -496,6 +517,8 @@ def _normalize(raw: Any) -> dict:
         # The thesis recommends Houbolt's scheme for its model (III.2.4): its default there.
         time = {**(time or {}), "integrator": "houbolt"} if not isinstance(time, str) else time
     scene["time"] = _time(time)
+    if scene["time"]["periodic_solver"] == "spectral":
+        _spectral_allowed(scene)
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])

@@ -22,6 +22,7 @@ from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
 from ..problem.status import STATUS_FLAGS
 from .batch import Batch
+from .collocation import SpectralSteadyState, spectral_steady_state
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import from_independent, integrator_for, stability_limit, start
 from .kernels import expand, static_period
@@ -39,6 +40,8 @@ LARGE_DEFLECTION = 0.01
 #: the section's own deformation: docs/fidelity.md's rule of thumb, plane_stress below 3; at 3
 #: Timoshenko's first frequency is already 0.86 of Euler–Bernoulli's).
 THICK_LINK_RATIO = 3.0
+#: Key of ``result`` under which :func:`_response` passes the spectral solution to the recovery.
+_SERIES = "_series"
 #: Formulations that model a link as a beam (plane_stress models the continuum).
 BEAMS = ("euler_bernoulli", "timoshenko", "seed_lame")
 
@@ -112,7 +115,8 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only)
-    result.update(_recover(model, qz, qz_static, not peaks_only, allocate))
+    series = result.pop(_SERIES, None)
+    result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
     if not peaks_only:
@@ -167,7 +171,18 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     _check_stable_step(model, stability_limit(scheme))
     marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
-    if time_cfg["start"] == "periodic":
+    series = None
+    if time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral":
+        # Near-singular cases are shot: no global Fourier series converges there.
+        series = spectral_steady_state(model, period,
+                                       (status & STATUS_FLAGS["near_singular"]) == 0)
+        result["collocation_points"] = series.points
+        result["spectral_tail"] = series.tail
+        result[_SERIES] = series
+    if time_cfg["start"] == "periodic" and (series is None or full
+                                            or not series.solved.all()):
+        # Shooting gives the Floquet multipliers (from the monodromy of the scene's steps),
+        # and the state of the cases the spectral solver left.
         periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase, full)
         state = from_independent(terms, scheme, *periodic)
         if full:
@@ -175,13 +190,20 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
             result["floquet_multiplier_max"] = largest
             status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
             status[resonant] |= STATUS_FLAGS["resonant"]
+    elif time_cfg["start"] == "periodic":
+        state = None
     else:
         q0 = np.zeros((ncase, ny, 1))
         v0 = np.zeros_like(q0)
         if time_cfg["start"] == "quasi_static":
             q0, v0 = _quasi_static_start(model, h)
         state = start(terms, q0, v0)
-    _, record = marcher.march(state, n_steps, every)
+    if series is None or not series.solved.all():
+        _, record = marcher.march(state, n_steps, every)
+    else:
+        record = np.empty((ncase, len(out_steps), ny))
+    if series is not None:  # its cases repeat the series' period
+        record[series.solved] = series.displacement[series.solved][:, out_steps % period.period]
     return _expand(layout, period, record, out_steps), qz_static, period
 
 
@@ -284,18 +306,21 @@ def _check_stable_step(model: Model, limit: float) -> None:
 
 
 def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
-             fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
+             fields: bool = True, allocate=None,
+             series: SpectralSteadyState | None = None) -> dict[str, np.ndarray]:
     """Deflection, strains, stress at the stations, per-link peaks, dynamic amplification
     (without ``qz_static``: none).
 
     The station fields are returned in float32, as they are stored; the peaks are taken from
     the float64 values first, into the arrays of ``allocate`` where given (numpy's path
-    ignores it). ``fields=False`` returns the peaks alone. One compiled pass per
+    ignores it). ``fields=False`` returns the peaks alone. The cases a spectral solver
+    took (``series``) take their peaks from its series instead of the output steps
+    (:mod:`ced.response.collocation`). One compiled pass per
     case (:func:`ced.fem.recovery_kernel.recover`); ``CED_KERNEL=numpy`` takes the numpy path
     (:func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks`), the reference
     the kernel is tested against."""
     if os.environ.get("CED_KERNEL", "numba") == "numpy":
-        return _recover_numpy(model, qz, qz_static, fields)
+        return _recover_numpy(model, qz, qz_static, fields, series=series)
     batch, layout = model.batch, model.layout
     links = layout.topology.links
     zero = np.zeros(batch.size)
@@ -306,9 +331,17 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
                   [model.recovery.get(name) for name in links], model.stations, height, E,
                   fields, qz_static, allocate)
     static_peak = out.pop("static_peak_deflection", None)
+    _series_peaks(out, series)
     if static_peak is not None:
         out["dynamic_amplification"] = _amplification(out["peak_deflection"], static_peak)
     return out
+
+
+def _series_peaks(out: dict[str, np.ndarray], series: SpectralSteadyState | None) -> None:
+    """Overwrite the peaks of the cases the spectral solver took by those of its series."""
+    if series is not None:
+        for name in ("peak_deflection", "peak_stress"):
+            out[name][series.solved] = getattr(series, name)[series.solved]
 
 
 def _amplification(peak: np.ndarray, static_peak: np.ndarray) -> np.ndarray:
@@ -319,7 +352,8 @@ def _amplification(peak: np.ndarray, static_peak: np.ndarray) -> np.ndarray:
 
 
 def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
-                   fields: bool = True, allocate=None) -> dict[str, np.ndarray]:
+                   fields: bool = True, allocate=None,
+                   series: SpectralSteadyState | None = None) -> dict[str, np.ndarray]:
     """:func:`_recover` through numpy (``CED_KERNEL=numpy``): the link fields by batched
     matmul, the peaks by :func:`ced.fem.recovery.peaks`; ``allocate`` is not used (the
     caller copies the fields)."""
@@ -354,6 +388,7 @@ def _recover_numpy(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
                                 model.stations)
             static_peak[:, i] = peaks(static[:, :, None])[:, 0]
     out = {**stored, "peak_deflection": peak, "peak_stress": peak_stress}
+    _series_peaks(out, series)
     if qz_static is not None:
         out["dynamic_amplification"] = _amplification(peak, static_peak)
     return out

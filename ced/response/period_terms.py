@@ -28,8 +28,8 @@ import numpy as np
 
 from .model import Model, terms_at
 
-__all__ = ["PeriodTerms", "period_terms", "interpolate_periodic", "interpolation_weights",
-           "SAMPLES", "TOLERANCE", "STENCIL"]
+__all__ = ["PeriodTerms", "period_terms", "evaluate_terms", "interpolate_periodic",
+           "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
 
 #: Samples per period to start from (doubled until the interpolation error is small enough).
 SAMPLES = 64
@@ -191,9 +191,11 @@ def _relative_error(approx: dict, exact: dict) -> np.ndarray:
 _CHUNK_BYTES = 50e6
 
 
-def _evaluate(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str, np.ndarray]:
-    """Terms at ``phases`` (in steps, fractional allowed) of every case, each its own array
-    (case, phase, …), evaluated in chunks of phases."""
+def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str, np.ndarray]:
+    """Terms at ``phases`` (in steps of ``h`` s, fractional allowed) of every case, each its
+    own array (case, phase, …): ``mass``, ``damping``, ``stiffness``, ``force`` and
+    ``projection`` (the first two absent where no effect forms them), evaluated in chunks of
+    phases."""
     layout = model.layout
     per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
     chunk = int(max(4, _CHUNK_BYTES // max(per_phase, 1)))
@@ -251,7 +253,7 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
     ncase = model.batch.size
     n = samples
     if not exact and 4 * n <= period:  # else every step costs little more than sampling
-        values = _evaluate(model, h, np.arange(n) * (period / n))
+        values = evaluate_terms(model, h, np.arange(n) * (period / n))
         while True:
             # Interpolate the odd samples from the even ones: the half set's error.
             even = {name: x[:, 0::2] for name, x in values.items()}
@@ -264,12 +266,12 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                     interpolation_error=estimate, sampled=values)
             if 4 * n > period:
                 break  # as many samples as steps: evaluate every step
-            middle = _evaluate(model, h, (np.arange(n) + 0.5) * (period / n))
+            middle = evaluate_terms(model, h, (np.arange(n) + 0.5) * (period / n))
             values, n = _interleave(values, middle), 2 * n
         if period % n == 0:  # the samples are steps: evaluate only the others
             stride = period // n
             rest = np.setdiff1d(np.arange(period), np.arange(0, period, stride))
-            others = _evaluate(model, h, rest.astype(float))
+            others = evaluate_terms(model, h, rest.astype(float))
             full = {}
             for name, x in values.items():
                 y = np.empty((ncase, period) + x.shape[2:])
@@ -277,7 +279,7 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                 full[name] = y
             return PeriodTerms(**_with_none(full), samples=period,
                                interpolation_error=np.zeros(ncase))
-    values = _evaluate(model, h, np.arange(period, dtype=float))
+    values = evaluate_terms(model, h, np.arange(period, dtype=float))
     return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase))
 
 

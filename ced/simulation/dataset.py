@@ -74,6 +74,12 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case", "link"), "m s-1", "transverse wave speed sqrt(mu/rho)", _F64),
     "floquet_multiplier_max": (
         ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
+    "collocation_points": (
+        ("case",), "1", "Fourier collocation points per input period of the periodic steady "
+        "state (0 where it was shot)", "int32"),
+    "spectral_tail": (
+        ("case",), "1", "summed amplitude of the highest resolved quarter of the stress "
+        "harmonics, relative to the peak stress (NaN where the steady state was shot)", _F64),
     "solve_time": (("case",), "s", "solver wall time per case", _F64),
     "discretization_auto": (
         ("case",), "", "discretization chosen for the tolerance (JSON; null if not auto)", "str"),
@@ -115,6 +121,10 @@ PRESENCE: dict[str, str] = {
     "transverse_wave_speed": "formulation `seed_lame` (the thesis's wave analysis)",
     "floquet_multiplier_max": "elastic formulations with `elastic_inertia` and "
                               "`time.start: periodic`",
+    "collocation_points": "elastic formulations with `elastic_inertia` and "
+                          "`time.periodic_solver: spectral`",
+    "spectral_tail": "elastic formulations with `elastic_inertia` and "
+                     "`time.periodic_solver: spectral`",
     "solve_time": "always",
     "discretization_auto": "when a scene of the run has `discretization: auto`",
     "error_estimate": "elastic formulations unless every scene sets "

@@ -155,13 +155,17 @@ def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], 
     return out, motion.singular.any(axis=1)
 
 
+#: Variables whose NaN means "not applicable to this case" (dataset reference), not divergence.
+_NAN_WHERE_ABSENT = {"spectral_tail"}
+
+
 def _nonfinite(result: dict[str, np.ndarray]) -> dict[int, list[str]]:
     """Cases with a value that is not finite as stored (float32 fields overflow above 3.4e38),
     and the variables that have one."""
     bad: dict[int, list[str]] = {}
     for name, values in result.items():
         dtype = VARIABLES[name][3]
-        if dtype not in ("float32", "float64"):
+        if dtype not in ("float32", "float64") or name in _NAN_WHERE_ABSENT:
             continue
         with np.errstate(over="ignore", invalid="ignore"):  # as stored; no copy if it is
             stored = np.asarray(values).astype(dtype, copy=False)
@@ -382,7 +386,8 @@ def simulate(scenes) -> xr.Dataset:
             lambda: _first_frequency(solved, data, order),
             np.concatenate([b.step_size for b in batches])[order],
             lambda companions: _peaks(companions, keep_going=True)["peak"],
-            known={i: r["predicted_error"] for i, r in enumerate(reports) if r})
+            known={i: r["predicted_error"] for i, r in enumerate(reports) if r},
+            spectral_tail=data.get("spectral_tail"))
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
         unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])

@@ -179,8 +179,8 @@ def test_compiled_recovery_equals_the_numpy_path(monkeypatch, peaks_only):
     from ced.response import elastic
     compiled, pairs = elastic._recover, []
 
-    def both(model, qz, qz_static, fields=True, allocate=None):
-        got = compiled(model, qz, qz_static, fields, allocate)
+    def both(model, qz, qz_static, fields=True, allocate=None, series=None):
+        got = compiled(model, qz, qz_static, fields, allocate, series)
         pairs.append((got, elastic._recover_numpy(model, qz, qz_static, fields)))
         return got
 

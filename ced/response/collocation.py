@@ -1,0 +1,265 @@
+"""The periodic steady state by Fourier collocation, with as many harmonics as it needs.
+
+``time.periodic_solver: spectral``. The elastic system of a periodic start is linear and
+periodic in the input period, so its steady state is a Fourier series in the input phase θ.
+Collocated at P equally spaced phases (:func:`ced.response.spectral.solve_periodic`) it
+converges exponentially in P once P/2 clears the harmonics the response holds; shooting
+with a second-order integrator instead carries a period error (ωh)²/12 on every harmonic,
+which near an undamped mode sitting on a high crank harmonic (the 20th–47th in the default
+study) turns into an amplitude error of tens of percent at 128 steps per revolution.
+
+P is chosen per case. It starts at :data:`START_POINTS` and doubles, up to
+:data:`MAX_POINTS`, while the response's highest resolved harmonics still carry more than
+:data:`TAIL_TOLERANCE` of its peak: the **spectral tail**, the summed amplitude of the signed
+stress's harmonics in the top quarter of the resolved band (3P/8 < k ≤ P/2), largest over
+link, station and fibre, relative to the peak stress. A converged series has a negligible
+tail; one that is cut inside a resonant band does not. Measured on 228 unflagged cases of the
+default study against P = 384 (``docs/performance.md``): this ladder put every case within
+2 % (largest error 0.83 %, mean final P 55), where fixed P = 32, 64, 128 left 8, 3 and 1.5 %
+of them outside; the tail was above the true error on 96–97 % of the cases at every P.
+
+The peaks are taken from the series, not from the output steps: the displacements at the
+collocation points are resampled by their trigonometric interpolant to :data:`PEAK_SAMPLES`
+× P points and the peaks recovered there (:func:`ced.fem.recovery.peaks`'s parabola between
+samples), so that a resonant high harmonic is not under-sampled by a coarse output grid (at
+128 points per period the peak was off by more than 2 % on 3 of 228 cases).
+
+Cases near a change point or toggle (``near_singular``) have motions with features narrower
+than any global Fourier basis resolves (GMRES stalls there, and the series does not
+converge): they, and any case whose solve does not converge, are left to the shooting
+(:func:`spectral_steady_state` says which).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..fem.recovery import peaks
+from ..fem.recovery_kernel import recover
+from .kernels import expand
+from .model import Model
+from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
+from .spectral import evaluate, solve_periodic
+
+__all__ = ["SpectralSteadyState", "spectral_steady_state", "resample", "spectral_tail",
+           "START_POINTS", "MAX_POINTS", "MAX_ITERATIONS", "TAIL_TOLERANCE", "PEAK_SAMPLES"]
+
+#: Collocation points to start from: enough for the load's own harmonics (the reference
+#: four-bar's first mode carries 0.12 % of its load at the 6th), and the cheapest solve.
+START_POINTS = 32
+#: Most collocation points: the 128th harmonic; the sharpest resonances of the default study
+#: needed 256 (6 of 228 cases).
+MAX_POINTS = 256
+#: GMRES iterations allowed per solve (:func:`ced.response.spectral.solve_periodic`). The
+#: time-averaged preconditioner needs 12–35 on the default study's four-bars and slider-cranks
+#: at P = 32–64; double cranks whose stiffness swings over the cycle need hundreds, and
+#: a case that has not converged by then is better shot than iterated (500 iterations cost
+#: 75 ms at P = 128, five times its shooting).
+MAX_ITERATIONS = 100
+#: Spectral tail above which P doubles (0.5 %: the ladder's largest true error was 0.83 %).
+TAIL_TOLERANCE = 5e-3
+#: Peaks are recovered at this many points per collocation point (the series resampled).
+PEAK_SAMPLES = 8
+#: Bytes of collocation terms held at once (cases are solved in blocks of this size).
+_BLOCK_BYTES = 50e6
+_TERMS = ("mass", "damping", "stiffness", "force", "projection")
+
+
+@dataclass
+class SpectralSteadyState:
+    """The periodic state of the cases the spectral solver took.
+
+    ``solved`` (case,) bool marks them; for the others (near-singular, or not converged at
+    :data:`START_POINTS`) the arrays hold zeros and the caller shoots. ``displacement`` (case, steps, ny) is y at every
+    step of one period of the step grid, m; ``points`` (case,) the collocation points used;
+    ``tail`` (case,) the spectral tail (module docstring), dimensionless; ``peak_deflection``
+    and ``peak_stress`` (case, link) the peaks of the series, m and Pa.
+    """
+
+    solved: np.ndarray
+    displacement: np.ndarray
+    points: np.ndarray
+    tail: np.ndarray
+    peak_deflection: np.ndarray
+    peak_stress: np.ndarray
+
+
+def spectral_steady_state(model: Model, period: PeriodTerms, candidates: np.ndarray
+                          ) -> SpectralSteadyState:
+    """Periodic steady state of the ``candidates`` (case,) bool by adaptive Fourier
+    collocation (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model (input speed Ω in rad/s).
+    period : PeriodTerms
+        The batch's terms over one period of its step grid (the collocation points are taken
+        from its samples, or interpolated from them).
+    candidates : numpy.ndarray
+        Cases to solve, shape (case,), bool.
+
+    Returns
+    -------
+    SpectralSteadyState
+    """
+    batch, layout = model.batch, model.layout
+    ncase, steps, nlink = batch.size, period.period, len(layout.topology.links)
+    out = SpectralSteadyState(
+        solved=np.zeros(ncase, bool), displacement=np.zeros((ncase, steps, layout.ny)),
+        points=np.zeros(ncase, np.int64), tail=np.full(ncase, np.nan),
+        peak_deflection=np.zeros((ncase, nlink)), peak_stress=np.zeros((ncase, nlink)))
+    todo = np.flatnonzero(candidates)
+    points = START_POINTS
+    while todo.size:
+        retry = []
+        for block in _blocks(todo, points, model):
+            terms = collocation_terms(model, period, points, block)
+            solution = solve_periodic(terms["stiffness"], terms["force"], batch.speed[block],
+                                      terms["mass"], terms["damping"],
+                                      maxiter=MAX_ITERATIONS)
+            # A case that does not converge keeps the series of its last level (its tail
+            # above TAIL_TOLERANCE says so in its error estimate), or, at the first, is shot.
+            ok = block[solution.converged]
+            if not ok.size:
+                continue
+            y = solution.displacement[solution.converged]
+            z = _displacements(layout, terms["projection"][solution.converged], y)
+            tail, peak_deflection, peak_stress = _series_peaks(model, ok, z)
+            out.solved[ok] = True
+            out.points[ok] = points
+            out.tail[ok] = tail
+            out.peak_deflection[ok] = peak_deflection
+            out.peak_stress[ok] = peak_stress
+            out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
+            if points < MAX_POINTS:
+                retry.append(ok[tail > TAIL_TOLERANCE])
+        todo = np.concatenate(retry) if retry else todo[:0]
+        points *= 2
+    return out
+
+
+def _blocks(cases: np.ndarray, points: int, model: Model) -> list[np.ndarray]:
+    """The cases in blocks whose collocation terms and resampled fields fit in
+    :data:`_BLOCK_BYTES`."""
+    layout = model.layout
+    fields = 6 * len(layout.topology.links) * len(model.stations)  # float32, at PEAK_SAMPLES
+    per_case = points * (8 * (3 * layout.ny**2 + layout.ny + layout.nz * layout.ny)
+                         + 4 * PEAK_SAMPLES * fields)
+    size = int(max(1, _BLOCK_BYTES // per_case))
+    return [cases[i:i + size] for i in range(0, len(cases), size)]
+
+
+def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.ndarray
+                      ) -> dict[str, np.ndarray | None]:
+    """M, C, K, F and the projection's joint columns at ``points`` equally spaced phases
+    2πj/points (j = 0 … points − 1) for the given cases, each (case, points, …).
+
+    Taken from the period's samples (exact terms) or its steps where the points are among
+    them; else interpolated from them by :func:`ced.response.period_terms.interpolate_periodic`
+    (checked to its tolerance), or, where that check fails, evaluated at the points.
+    """
+    source = period.sampled if period.sampled is not None else {
+        name: getattr(period, name) for name in _TERMS}
+    out: dict[str, np.ndarray | None] = {}
+    for name in _TERMS:
+        values = source.get(name)
+        if values is None:
+            out[name] = None
+            continue
+        available = values.shape[1]
+        if available % points == 0:
+            out[name] = np.ascontiguousarray(values[cases, ::available // points])
+        else:
+            out[name] = interpolate_periodic(values[cases], points)
+            if out[name] is None:  # not smooth enough between the samples: evaluate
+                exact = evaluate_terms(model, model.batch.step_size,
+                                  np.arange(points) * (period.period / points))
+                return {n: (None if exact.get(n) is None else
+                            np.ascontiguousarray(exact[n][cases])) for n in _TERMS}
+    return out
+
+
+def _displacements(layout, projection: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """z = P y at each collocation point: projection (case, P, nz, nfree), y (case, P, ny)."""
+    z = np.empty(y.shape[:2] + (layout.nz,))
+    expand(np.ascontiguousarray(projection), np.ascontiguousarray(y),
+           np.arange(y.shape[1], dtype=np.int64), layout.interior_rows().astype(np.int64), z)
+    return z
+
+
+def resample(values: np.ndarray, samples: int) -> np.ndarray:
+    """The trigonometric interpolant of periodic ``values`` (case, P, …), P even, at
+    ``samples`` ≥ P equally spaced phases from 0 (the Nyquist harmonic split evenly between
+    ±P/2, as :func:`ced.response.spectral.evaluate`).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Samples at phases 2πj/P, shape (case, P, …).
+    samples : int
+        Number of phases to return, a multiple of P.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case, samples, …).
+    """
+    P = values.shape[1]
+    if samples == P:
+        return values.copy()
+    spectrum = np.fft.rfft(values, axis=1)
+    spectrum[:, P // 2] *= 0.5  # and its mirror at −P/2, which irfft adds
+    padded = np.zeros((values.shape[0], samples // 2 + 1) + values.shape[2:], complex)
+    padded[:, :P // 2 + 1] = spectrum
+    return np.fft.irfft(padded, n=samples, axis=1) * (samples / P)
+
+
+def spectral_tail(stress: np.ndarray, peak: np.ndarray) -> np.ndarray:
+    """Summed amplitude of the harmonics 3P/8 < k ≤ P/2 of the signed stress, largest over
+    link, station and fibre, relative to ``peak`` (module docstring).
+
+    Parameters
+    ----------
+    stress : numpy.ndarray
+        Signed stress at the P collocation points, Pa, shape (case, P, link, station, fibre).
+    peak : numpy.ndarray
+        The case's peak stress, Pa, shape (case,).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (case,), dimensionless; 0 where the peak is 0.
+    """
+    P = stress.shape[1]
+    amplitude = np.abs(np.fft.rfft(stress, axis=1)) * (2.0 / P)
+    amplitude[:, P // 2] *= 0.5  # the Nyquist harmonic is counted once
+    k = np.arange(P // 2 + 1)
+    band = amplitude[:, k > 3 * P / 8].sum(axis=1)
+    band = band.reshape(len(stress), int(np.prod(band.shape[1:]))).max(axis=1, initial=0.0)
+    return np.divide(band, peak, out=np.zeros_like(band), where=peak > 0)
+
+
+def _series_peaks(model: Model, cases: np.ndarray, z: np.ndarray):
+    """Spectral tail and peaks of the series whose displacements at the collocation points
+    are z (case, P, nz), for the given cases of the model's batch."""
+    batch, layout = model.batch, model.layout
+    links = layout.topology.links
+    zero = np.zeros(batch.size)
+    height, E = (np.stack([batch.link_property(name, group, key) if name in model.recovery
+                           else zero for name in links], axis=1)[cases]
+                 for group, key in (("section", "height"), ("material", "E")))
+    operators = [None if name not in model.recovery else
+                 {key: (op[cases] if op.ndim == 3 else op)
+                  for key, op in model.recovery[name].items()} for name in links]
+    rows = [layout.link_offsets[name] for name in links]
+    fine = recover(resample(z, PEAK_SAMPLES * z.shape[1]), rows, operators, model.stations,
+                   height, E, fields=True)
+    stress = fine["stress"]
+    larger = np.maximum(np.abs(stress[..., 0]), np.abs(stress[..., 1])).astype(float)
+    peak_stress = peaks(larger, periodic=True)
+    peak_deflection = peaks(fine["deflection"].astype(float), periodic=True)
+    # The collocation points are every PEAK_SAMPLES-th of the resampled points.
+    tail = spectral_tail(stress[:, ::PEAK_SAMPLES].astype(float), peak_stress.max(axis=1))
+    return tail, peak_deflection, peak_stress
