@@ -236,7 +236,7 @@ def _forced_only(time_cfg: dict, omega1_h: float) -> bool:
     return algorithmic_damping(time_cfg, min(2.0 * omega1_h, math.pi)) <= DAMPED
 
 
-def companions(scene: dict, omega1_h: float = 0.0, spectral: bool = False
+def companions(scene: dict, omega1_h: float = 0.0, collocation_points: int = 0
                ) -> list[Companion]:
     """Companion discretizations of a normalized scene with an elastic formulation.
 
@@ -255,10 +255,12 @@ def companions(scene: dict, omega1_h: float = 0.0, spectral: bool = False
     own solution; their two estimates are added. Modes per link are kept; the companions make
     no modal analysis.
 
-    A case whose periodic state is a Fourier series (``spectral``,
+    A case whose periodic state is a Fourier series (``collocation_points`` > 0,
     :mod:`ced.response.collocation`) has its time error in the series' tail, added by
     :func:`error_estimates`: its one companion coarsens the mesh only (or refines it, from
-    four elements or fewer), on the same solver.
+    four elements or fewer), on the same solver at the case's own number of points, so that
+    the difference is the mesh's alone (and the companion needs its terms at those points
+    only).
 
     Parameters
     ----------
@@ -266,9 +268,9 @@ def companions(scene: dict, omega1_h: float = 0.0, spectral: bool = False
         Normalized scene (:func:`ced.problem.scene.load_scene`) with ``discretization`` a dict.
     omega1_h : float
         First natural frequency × step, rad per step (0 if unknown).
-    spectral : bool
-        The case's periodic state was found by the spectral solver (else it was shot or
-        marched, and so are its companions).
+    collocation_points : int
+        The Fourier collocation points of the case's periodic state where the spectral solver
+        found it; 0 where it was shot or marched, and so are its companions.
 
     Returns
     -------
@@ -281,8 +283,11 @@ def companions(scene: dict, omega1_h: float = 0.0, spectral: bool = False
 
     def variant(n_el: int, steps: int) -> dict:
         out = copy.deepcopy(scene)
-        if not spectral:  # the case was shot: so are its companions
+        if collocation_points:  # the series at the case's own points
+            out["time"]["collocation_points"] = int(collocation_points)
+        else:  # the case was shot: so are its companions
             out["time"]["periodic_solver"] = "shooting"
+            out["time"]["collocation_points"] = "auto"
         out["discretization"]["elements_per_link"] = n_el
         out["time"]["steps_per_revolution"] = steps
         # Output (and peak sampling) at least as dense in time as the scene's: the same
@@ -294,7 +299,7 @@ def companions(scene: dict, omega1_h: float = 0.0, spectral: bool = False
 
     periodic = time["start"] == "periodic"
     safety = SAFETY_PERIODIC if periodic else SAFETY
-    if spectral:  # the time part is the series' own tail: the mesh alone is coarsened
+    if collocation_points:  # the time part is the series' own tail: the mesh alone is coarsened
         space = _elements_for_growth(ne, order, 4.0) or 2 * ne
         return [Companion(variant(space, spr), _factor((ne / space) ** order, safety))]
     coarse_steps = None if _time_companion_finer(time) else coarser_steps(
@@ -336,7 +341,8 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
                     first_frequency: Callable[[], np.ndarray], step_size: np.ndarray,
                     solve: Callable[[list[dict]], np.ndarray],
                     known: dict[int, float] | None = None,
-                    spectral_tail: np.ndarray | None = None) -> np.ndarray:
+                    spectral_tail: np.ndarray | None = None,
+                    collocation_points: np.ndarray | None = None) -> np.ndarray:
     """``error_estimate`` of each case from its companion solutions.
 
     Parameters
@@ -362,6 +368,9 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
         The spectral tail of each case whose periodic state is a Fourier series
         (:mod:`ced.response.collocation`), NaN for the others: their time error, added to the
         mesh companion's estimate (:data:`SAFETY_TAIL` ×).
+    collocation_points : (case,) int array, optional
+        The Fourier collocation points of those cases (0 for the others); their companions
+        are solved at the same points. Required with ``spectral_tail``.
 
     Returns
     -------
@@ -385,7 +394,8 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
         omega1_h[dynamic] = omega1[dynamic] * step_size[dynamic]
     tail = np.full(len(scenes), np.nan) if spectral_tail is None else spectral_tail
     series = np.isfinite(tail)
-    plans = {i: companions(scenes[i], float(omega1_h[i]), bool(series[i])) for i in wanted}
+    points = np.where(series, 0 if collocation_points is None else collocation_points, 0)
+    plans = {i: companions(scenes[i], float(omega1_h[i]), int(points[i])) for i in wanted}
     terms = np.where(series, SAFETY_TAIL * tail, 0.0)
     for slot in range(max(len(p) for p in plans.values())):
         cases = [i for i in wanted if len(plans[i]) > slot]

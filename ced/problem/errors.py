@@ -24,8 +24,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["SceneError", "Real", "Int", "Choice", "Bool", "Text", "check_keys", "key_path", "join",
-           "shown"]
+__all__ = ["SceneError", "Real", "Int", "AutoOr", "Choice", "Bool", "Text", "check_keys",
+           "key_path", "join", "shown"]
 
 
 class SceneError(ValueError):
@@ -144,15 +144,16 @@ class Real:
 
 @dataclass(frozen=True)
 class Int:
-    """An integer in [``low``, ``high``], optionally odd."""
+    """An integer in [``low``, ``high``], optionally odd or even."""
 
     low: int | None = None
     high: int | None = None
     odd: bool = False
     hint: str = ""
+    even: bool = False
 
     def describe(self) -> str:
-        text = "an odd integer" if self.odd else "an integer"
+        text = "an odd integer" if self.odd else "an even integer" if self.even else "an integer"
         if self.low is not None and self.high is not None:
             text += f" from {self.low} to {self.high}"
         elif self.low is not None:
@@ -169,9 +170,27 @@ class Int:
         else:
             raise SceneError(path, f"must be {self.describe()}, got {shown(value)}")
         if (self.low is not None and n < self.low) or (self.high is not None and n > self.high) \
-                or (self.odd and n % 2 == 0):
+                or (self.odd and n % 2 == 0) or (self.even and n % 2):
             raise SceneError(path, f"must be {self.describe()}, got {shown(value)}")
         return n
+
+
+@dataclass(frozen=True)
+class AutoOr:
+    """``auto`` (ced chooses) or a value that ``check`` accepts."""
+
+    check: Any
+
+    def describe(self) -> str:
+        return f"auto or {self.check.describe()}"
+
+    def __call__(self, value: Any, path: str) -> Any:
+        if value == "auto":
+            return "auto"
+        try:
+            return self.check(value, path)
+        except SceneError:
+            raise SceneError(path, f"must be {self.describe()}, got {shown(value)}") from None
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,8 @@ from collections.abc import Mapping
 from typing import Any
 
 
-from .errors import Bool, Choice, Int, Real, SceneError, Text, check_keys, join, shown
+from .errors import (AutoOr, Bool, Choice, Int, Real, SceneError, Text, check_keys, join,
+                     shown)
 from .linkage import LINKAGE_FIELDS, PRESET_FIELDS, check_description
 from .materials import resolve_material, section_properties
 from .yaml_files import check_structure, load_yaml
@@ -163,6 +164,7 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
         "alpha": (Real(low=-1.0 / 3.0, high=0.0), -0.05),
         "start": (Choice(STARTS), "undeformed"),
         "periodic_solver": (Choice(PERIODIC_SOLVERS), "shooting"),
+        "collocation_points": (AutoOr(Int(8, 4096, even=True)), AUTO),
     },
     "modal": {
         "modes": (Int(1, 1000), 6),
@@ -280,6 +282,10 @@ MEANINGS: dict[str, str] = {
                             "integrator over one period, exact for its steps) or spectral "
                             "(Fourier collocation, as many harmonics as the response needs; "
                             "the steps set only the output instants)",
+    "time.collocation_points": "Fourier collocation points per input period with "
+                               "periodic_solver: spectral: auto (from 32, doubled up to 256 "
+                               "while the spectral tail exceeds 0.5 % of the peak stress) or a "
+                               "fixed even number",
     "modal": "natural frequencies of the frozen linkage over the cycle; absent or null: none",
     "modal.modes": "number of natural frequencies computed at each phase",
     "modal.angles": "number of evenly spaced phases of the input cycle analysed",
@@ -519,6 +525,12 @@ def _normalize(raw: Any) -> dict:
     scene["time"] = _time(time)
     if scene["time"]["periodic_solver"] == "spectral":
         _spectral_allowed(scene)
+    elif scene["time"]["collocation_points"] != AUTO:
+        raise SceneError("time.collocation_points", "is the number of Fourier collocation "
+                                                    "points of periodic_solver: spectral "
+                                                    "(got periodic_solver: "
+                                                    f"{scene['time']['periodic_solver']}); "
+                                                    "leave it auto or drop it")
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])

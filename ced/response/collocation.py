@@ -85,37 +85,47 @@ class SpectralSteadyState:
     peak_stress: np.ndarray
 
 
-def spectral_steady_state(model: Model, period: PeriodTerms, candidates: np.ndarray
-                          ) -> SpectralSteadyState:
-    """Periodic steady state of the ``candidates`` (case,) bool by adaptive Fourier
-    collocation (module docstring).
+def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: np.ndarray,
+                          steps: int | None = None) -> SpectralSteadyState:
+    """Periodic steady state of the ``candidates`` (case,) bool by Fourier collocation, at
+    the scene's ``time.collocation_points``: adaptive (``auto``, module docstring) or fixed.
 
     Parameters
     ----------
     model : Model
         The batch's model (input speed Ω in rad/s).
-    period : PeriodTerms
+    period : PeriodTerms or None
         The batch's terms over one period of its step grid (the collocation points are taken
-        from its samples, or interpolated from them).
+        from its samples, or interpolated from them); None: the terms are evaluated at the
+        collocation points themselves (with a fixed number of points: one evaluation).
     candidates : numpy.ndarray
         Cases to solve, shape (case,), bool.
+    steps : int, optional
+        Steps per input period (default: ``period``'s).
 
     Returns
     -------
     SpectralSteadyState
     """
     batch, layout = model.batch, model.layout
-    ncase, steps, nlink = batch.size, period.period, len(layout.topology.links)
+    steps = period.period if steps is None else steps
+    ncase, nlink = batch.size, len(layout.topology.links)
     out = SpectralSteadyState(
         solved=np.zeros(ncase, bool), displacement=np.zeros((ncase, steps, layout.ny)),
         points=np.zeros(ncase, np.int64), tail=np.full(ncase, np.nan),
         peak_deflection=np.zeros((ncase, nlink)), peak_stress=np.zeros((ncase, nlink)))
     todo = np.flatnonzero(candidates)
-    points = START_POINTS
+    fixed = batch.scenes[0]["time"]["collocation_points"]
+    adaptive = fixed == "auto"
+    points = START_POINTS if adaptive else int(fixed)
     while todo.size:
         retry = []
+        evaluated = None if period is not None else _evaluate_at_points(model, steps, points,
+                                                                          todo)
         for block in _blocks(todo, points, model):
-            terms = collocation_terms(model, period, points, block)
+            terms = (collocation_terms(model, period, points, block) if evaluated is None
+                     else {name: None if x is None else x[np.searchsorted(todo, block)]
+                           for name, x in evaluated.items()})
             solution = solve_periodic(terms["stiffness"], terms["force"], batch.speed[block],
                                       terms["mass"], terms["damping"],
                                       maxiter=MAX_ITERATIONS)
@@ -133,11 +143,22 @@ def spectral_steady_state(model: Model, period: PeriodTerms, candidates: np.ndar
             out.peak_deflection[ok] = peak_deflection
             out.peak_stress[ok] = peak_stress
             out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
-            if points < MAX_POINTS:
+            if adaptive and points < MAX_POINTS:
                 retry.append(ok[tail > TAIL_TOLERANCE])
         todo = np.concatenate(retry) if retry else todo[:0]
         points *= 2
     return out
+
+
+def _evaluate_at_points(model: Model, steps: int, points: int, cases: np.ndarray
+                        ) -> dict[str, np.ndarray | None]:
+    """The terms at ``points`` equally spaced phases of the period (``steps`` steps) for
+    the given cases, each (case, points, …): evaluated for the whole batch (the model
+    serves all its cases at once), kept for ``cases``."""
+    exact = evaluate_terms(model, model.batch.step_size, np.arange(points) * (steps / points))
+    whole = len(cases) == model.batch.size
+    return {name: (None if exact.get(name) is None else exact[name] if whole else
+                   np.ascontiguousarray(exact[name][cases])) for name in _TERMS}
 
 
 def _blocks(cases: np.ndarray, points: int, model: Model) -> list[np.ndarray]:
@@ -174,10 +195,7 @@ def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.
         else:
             out[name] = interpolate_periodic(values[cases], points)
             if out[name] is None:  # not smooth enough between the samples: evaluate
-                exact = evaluate_terms(model, model.batch.step_size,
-                                  np.arange(points) * (period.period / points))
-                return {n: (None if exact.get(n) is None else
-                            np.ascontiguousarray(exact[n][cases])) for n in _TERMS}
+                return _evaluate_at_points(model, period.period, points, cases)
     return out
 
 

@@ -116,7 +116,10 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only)
     series = result.pop(_SERIES, None)
-    result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
+    if qz is None:  # every case's peaks are its series' (peaks only, spectral)
+        result.update(peak_deflection=series.peak_deflection, peak_stress=series.peak_stress)
+    else:
+        result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
     if not peaks_only:
@@ -158,6 +161,17 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     # Near a change point or toggle the terms have features narrower than any sampling can
     # see between its samples: a batch holding such a case evaluates every step.
     sharp = bool((status & STATUS_FLAGS["near_singular"]).any())
+    spectral = time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral"
+    series = None
+    if (spectral and not full and not sharp and time_cfg["collocation_points"] != "auto"
+            and "elastic_inertia" in model.effects):
+        # Peaks only, at a fixed number of points (an error estimate's companion): the terms
+        # are needed at the collocation points alone, not at every step of the period.
+        series = spectral_steady_state(model, None, np.ones(ncase, bool),
+                                       time_cfg["steps_per_revolution"])
+        _add_series(result, series)
+        if series.solved.all():
+            return None, None, None
     period = period_terms(model, h, time_cfg["steps_per_revolution"], exact=sharp)
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     qz_static = None
@@ -171,14 +185,11 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     _check_stable_step(model, stability_limit(scheme))
     marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
-    series = None
-    if time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral":
+    if spectral and series is None:
         # Near-singular cases are shot: no global Fourier series converges there.
         series = spectral_steady_state(model, period,
                                        (status & STATUS_FLAGS["near_singular"]) == 0)
-        result["collocation_points"] = series.points
-        result["spectral_tail"] = series.tail
-        result[_SERIES] = series
+        _add_series(result, series)
     if time_cfg["start"] == "periodic" and (series is None or full
                                             or not series.solved.all()):
         # Shooting gives the Floquet multipliers (from the monodromy of the scene's steps),
@@ -205,6 +216,12 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     if series is not None:  # its cases repeat the series' period
         record[series.solved] = series.displacement[series.solved][:, out_steps % period.period]
     return _expand(layout, period, record, out_steps), qz_static, period
+
+
+def _add_series(result: dict, series: SpectralSteadyState) -> None:
+    result["collocation_points"] = series.points
+    result["spectral_tail"] = series.tail
+    result[_SERIES] = series
 
 
 def _one_period(steps: np.ndarray, period: int) -> np.ndarray:

@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from ..rigid.small_systems import lu_factor, lu_solve
+
 __all__ = ["PeriodicSolution", "solve_periodic", "solve_periodic_dense", "evaluate",
            "diff_matrices", "RTOL", "MAXITER", "RESTART"]
 
@@ -293,62 +295,12 @@ def _fft(X, inverse, radix2, perm, tw, W, work):
 
 
 @nb.njit(**_JIT)
-def _lu_factor_complex(A, piv) -> bool:
-    """LU with partial pivoting of the complex A (n, n) in place (as
-    :func:`ced.rigid.small_systems.lu_factor`). False if a pivot is zero or not finite."""
-    n = A.shape[0]
-    for k in range(n):
-        p = k
-        big = abs(A[k, k])
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > big:
-                big = abs(A[i, k])
-                p = i
-        piv[k] = p
-        if not (big > 0.0 and big < np.inf):
-            return False
-        if p != k:
-            for j in range(n):
-                t = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = t
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            f = A[i, k] * inv
-            A[i, k] = f
-            for j in range(k + 1, n):
-                A[i, j] -= f * A[k, j]
-    return True
-
-
-@nb.njit(**_JIT)
 def _min_pivot(A) -> float:
     n = A.shape[0]
     m = np.inf
     for i in range(n):
         m = min(m, abs(A[i, i]))
     return m
-
-
-@nb.njit(**_JIT)
-def _lu_solve_complex(LU, piv, x):
-    n = x.shape[0]
-    for k in range(n):
-        p = piv[k]
-        if p != k:
-            t = x[k]
-            x[k] = x[p]
-            x[p] = t
-    for i in range(n):
-        t = x[i]
-        for k in range(i):
-            t -= LU[i, k] * x[k]
-        x[i] = t
-    for i in range(n - 1, -1, -1):
-        t = x[i]
-        for k in range(i + 1, n):
-            t -= LU[i, k] * x[k]
-        x[i] = t / LU[i, i]
 
 
 @nb.njit(**_JIT)
@@ -378,7 +330,7 @@ def _factor_blocks(Mb, Cb, Kb, has_mass, has_damping, w, P, LU, piv):
                     row += d1 * abs(Cb[i, j])
                 B[i, j] = complex(re, im)
             scale = max(scale, row)
-        ok = _lu_factor_complex(B, piv[k])
+        ok = lu_factor(B, piv[k])
         if not ok or _min_pivot(B) <= _SINGULAR * scale:
             shifted += 1
             sigma = _SHIFT * max(scale, 1e-300)
@@ -392,7 +344,7 @@ def _factor_blocks(Mb, Cb, Kb, has_mass, has_damping, w, P, LU, piv):
                         im = d1 * Cb[i, j]
                     B[i, j] = complex(re, im)
                 B[i, i] += complex(0.0, sigma)
-            if not _lu_factor_complex(B, piv[k]):  # only non-finite terms get here
+            if not lu_factor(B, piv[k]):  # only non-finite terms get here
                 for i in range(n):
                     for j in range(n):
                         B[i, j] = 0.0
@@ -413,7 +365,7 @@ def _precondition(v, LU, piv, plan, Z, work):
     _fft(Z, False, radix2, perm, tw, W, work)
     half = P // 2
     for k in range(half + 1):
-        _lu_solve_complex(LU[k], piv[k], Z[k])
+        lu_solve(LU[k], piv[k], Z[k])
     for k in range(1, half):
         for s in range(n):
             Z[P - k, s] = Z[k, s].conjugate()

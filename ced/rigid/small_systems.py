@@ -32,7 +32,8 @@ def lu_factor(A: np.ndarray, piv: np.ndarray) -> bool:
     Parameters
     ----------
     A : numpy.ndarray
-        Square matrix (n, n), float64, overwritten by its L and U factors.
+        Square matrix (n, n), float64 or complex128 (the frequency blocks of
+        :mod:`ced.response.spectral`), overwritten by its L and U factors.
     piv : numpy.ndarray
         Pivot indices (n,), int64, filled.
 

@@ -387,7 +387,8 @@ def simulate(scenes) -> xr.Dataset:
             np.concatenate([b.step_size for b in batches])[order],
             lambda companions: _peaks(companions, keep_going=True)["peak"],
             known={i: r["predicted_error"] for i, r in enumerate(reports) if r},
-            spectral_tail=data.get("spectral_tail"))
+            spectral_tail=data.get("spectral_tail"),
+            collocation_points=data.get("collocation_points"))
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
         unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])

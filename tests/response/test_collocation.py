@@ -150,13 +150,13 @@ def test_a_batch_mixes_points_per_case():
 
 def test_the_error_estimate_adds_the_tail_to_a_mesh_companion():
     scene = load_scene(_with(BLIND_SPOT))
-    plan = companions(scene, 0.5, spectral=True)
+    plan = companions(scene, 0.5, collocation_points=64)
     assert len(plan) == 1
     companion = plan[0].scene
-    assert companion["time"] == scene["time"]
+    assert companion["time"] == {**scene["time"], "collocation_points": 64}
     assert companion["discretization"]["elements_per_link"] < 8
     # A shot case keeps the shooting's plan, and its companions are shot too.
-    shot = companions(scene, 0.5, spectral=False)
+    shot = companions(scene, 0.5, collocation_points=0)
     assert all(c.scene["time"]["periodic_solver"] == "shooting" for c in shot)
     assert shot[0].scene["time"]["steps_per_revolution"] < 128
     scene_with_estimate = copy.deepcopy(BLIND_SPOT)
@@ -188,3 +188,32 @@ def test_spectral_refuses_auto_discretization():
     scene["discretization"] = "auto"
     with pytest.raises(SceneError, match="time.periodic_solver.*discretization: auto"):
         load_scene(scene)
+
+
+def test_fixed_points_take_no_ladder_and_peaks_only_needs_the_terms_at_them_alone(monkeypatch):
+    # A companion's solve (peaks only, fixed P) evaluates the terms at the P points only, and
+    # gives the peaks of the full solve at the same P: the same series.
+    from ced.response import batch as batch_module, period_terms
+    from ced.simulation.simulate import solve_batch
+    scenes = []
+    for speed, crank in ((400.0, 0.25), (150.0, 0.1)):
+        scene = _with(BLIND_SPOT, collocation_points=64)
+        scene["drive"]["speed"] = speed
+        scene["mechanism"]["crank"] = crank
+        scenes.append(load_scene(scene))
+    full = simulate(scenes)
+    assert full.collocation_points.values.tolist() == [64, 64]
+    assert (full.spectral_tail.values > 0).all()
+    phases = []
+    evaluate = period_terms.evaluate_terms
+
+    def spy(model, h, at):
+        phases.append(len(at))
+        return evaluate(model, h, at)
+    monkeypatch.setattr("ced.response.collocation.evaluate_terms", spy)
+    monkeypatch.setattr("ced.response.period_terms.evaluate_terms", spy)
+    peaks_only = solve_batch(batch_module.make_batch(scenes), peaks_only=True)
+    assert phases == [64]
+    np.testing.assert_allclose(peaks_only["peak_stress"], full.peak_stress, rtol=1e-12)
+    np.testing.assert_allclose(peaks_only["peak_deflection"], full.peak_deflection, rtol=1e-12)
+    np.testing.assert_array_equal(peaks_only["collocation_points"], [64, 64])
