@@ -43,7 +43,8 @@ from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
 from .spectral import evaluate, solve_periodic
 
 __all__ = ["SpectralSteadyState", "spectral_steady_state", "resample", "spectral_tail",
-           "START_POINTS", "MAX_POINTS", "MAX_ITERATIONS", "TAIL_TOLERANCE", "PEAK_SAMPLES"]
+           "START_POINTS", "MAX_POINTS", "MAX_ITERATIONS", "LADDER_ITERATIONS",
+           "TAIL_TOLERANCE", "PEAK_SAMPLES"]
 
 #: Collocation points to start from: enough for the load's own harmonics (the reference
 #: four-bar's first mode carries 0.12 % of its load at the 6th), and the cheapest solve.
@@ -57,6 +58,11 @@ MAX_POINTS = 256
 #: a case that has not converged by then is better shot than iterated (500 iterations cost
 #: 75 ms at P = 128, five times its shooting).
 MAX_ITERATIONS = 100
+#: GMRES iterations allowed per solve above the first level: a case that climbs the ladder is
+#: near a resonance of a high harmonic, where the time-averaged preconditioner is weaker (a
+#: default-study crank-rocker at 50 rad/s needed 331 at P = 128 and 173 at P = 256), and
+#: stopping early would leave its series unresolved.
+LADDER_ITERATIONS = 500
 #: Spectral tail above which P doubles (0.5 %: the ladder's largest true error was 0.83 %).
 TAIL_TOLERANCE = 5e-3
 #: Peaks are recovered at this many points per collocation point (the series resampled).
@@ -74,7 +80,11 @@ class SpectralSteadyState:
     :data:`START_POINTS`) the arrays hold zeros and the caller shoots. ``displacement`` (case, steps, ny) is y at every
     step of one period of the step grid, m; ``points`` (case,) the collocation points used;
     ``tail`` (case,) the spectral tail (module docstring), dimensionless; ``peak_deflection``
-    and ``peak_stress`` (case, link) the peaks of the series, m and Pa.
+    and ``peak_stress`` (case, link) the peaks of the series, m and Pa. ``unresolved`` (case,)
+    bool marks the cases of the adaptive ladder whose tail stayed above
+    :data:`TAIL_TOLERANCE` at the last level solved, because the next level's GMRES did not
+    converge or :data:`MAX_POINTS` was reached: their series misses harmonics the response
+    holds, and the tail is no bound on the error (the caller flags them ``resonant``).
     """
 
     solved: np.ndarray
@@ -83,6 +93,7 @@ class SpectralSteadyState:
     tail: np.ndarray
     peak_deflection: np.ndarray
     peak_stress: np.ndarray
+    unresolved: np.ndarray
 
 
 def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: np.ndarray,
@@ -113,7 +124,8 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
     out = SpectralSteadyState(
         solved=np.zeros(ncase, bool), displacement=np.zeros((ncase, steps, layout.ny)),
         points=np.zeros(ncase, np.int64), tail=np.full(ncase, np.nan),
-        peak_deflection=np.zeros((ncase, nlink)), peak_stress=np.zeros((ncase, nlink)))
+        peak_deflection=np.zeros((ncase, nlink)), peak_stress=np.zeros((ncase, nlink)),
+        unresolved=np.zeros(ncase, bool))
     todo = np.flatnonzero(candidates)
     fixed = batch.scenes[0]["time"]["collocation_points"]
     adaptive = fixed == "auto"
@@ -128,9 +140,11 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
                            for name, x in evaluated.items()})
             solution = solve_periodic(terms["stiffness"], terms["force"], batch.speed[block],
                                       terms["mass"], terms["damping"],
-                                      maxiter=MAX_ITERATIONS)
-            # A case that does not converge keeps the series of its last level (its tail
-            # above TAIL_TOLERANCE says so in its error estimate), or, at the first, is shot.
+                                      maxiter=MAX_ITERATIONS if points == START_POINTS
+                                      else LADDER_ITERATIONS)
+            # A case that does not converge keeps the series of its last level, unresolved,
+            # or, at the first, is shot.
+            out.unresolved[block[~solution.converged & out.solved[block]]] = True
             ok = block[solution.converged]
             if not ok.size:
                 continue
@@ -143,8 +157,12 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
             out.peak_deflection[ok] = peak_deflection
             out.peak_stress[ok] = peak_stress
             out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
-            if adaptive and points < MAX_POINTS:
-                retry.append(ok[tail > TAIL_TOLERANCE])
+            if adaptive:
+                coarse = ok[tail > TAIL_TOLERANCE]
+                if points < MAX_POINTS:
+                    retry.append(coarse)
+                else:
+                    out.unresolved[coarse] = True
         todo = np.concatenate(retry) if retry else todo[:0]
         points *= 2
     return out

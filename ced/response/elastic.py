@@ -190,6 +190,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         series = spectral_steady_state(model, period,
                                        (status & STATUS_FLAGS["near_singular"]) == 0)
         _add_series(result, series)
+        # A series the ladder could not resolve: a harmonic sits on a mode so closely that
+        # the undamped response is not determined (the collocation system nearly singular).
+        status[series.unresolved] |= STATUS_FLAGS["resonant"]
     if time_cfg["start"] == "periodic" and (series is None or full
                                             or not series.solved.all()):
         # Shooting gives the Floquet multipliers (from the monodromy of the scene's steps),

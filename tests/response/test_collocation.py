@@ -217,3 +217,25 @@ def test_fixed_points_take_no_ladder_and_peaks_only_needs_the_terms_at_them_alon
     np.testing.assert_allclose(peaks_only["peak_stress"], full.peak_stress, rtol=1e-12)
     np.testing.assert_allclose(peaks_only["peak_deflection"], full.peak_deflection, rtol=1e-12)
     np.testing.assert_array_equal(peaks_only["collocation_points"], [64, 64])
+
+
+@pytest.mark.parametrize("limit", ["iterations", "points"])
+def test_a_series_the_ladder_cannot_resolve_is_flagged_resonant(monkeypatch, limit):
+    # A slow double crank whose series climbs beyond START_POINTS. Where the next level cannot
+    # be had (its GMRES stops unconverged, or MAX_POINTS is reached) the last series misses
+    # harmonics the response holds: flagged resonant, its tail reported as it stands.
+    from ced.response import collocation
+    slow = _with(BLIND_SPOT)
+    slow["drive"]["speed"] = 50.0
+    slow["mechanism"].update(ground=0.25, crank=0.45, coupler=0.4, rocker=0.25)
+    ok = simulate([slow])
+    assert ok.collocation_points.values[0] > START_POINTS
+    assert not ok.status.values[0] & STATUS_FLAGS["resonant"]
+    if limit == "iterations":
+        monkeypatch.setattr(collocation, "LADDER_ITERATIONS", 2)
+    else:
+        monkeypatch.setattr(collocation, "MAX_POINTS", START_POINTS)
+    ds = simulate([slow])
+    assert ds.collocation_points.values[0] == START_POINTS
+    assert ds.spectral_tail.values[0] > TAIL_TOLERANCE
+    assert ds.status.values[0] & STATUS_FLAGS["resonant"]
