@@ -192,10 +192,24 @@ _CHUNK_BYTES = 50e6
 
 
 def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str, np.ndarray]:
-    """Terms at ``phases`` (in steps of ``h`` s, fractional allowed) of every case, each its
-    own array (case, phase, …): ``mass``, ``damping``, ``stiffness``, ``force`` and
-    ``projection`` (the first two absent where no effect forms them), evaluated in chunks of
-    phases."""
+    """Terms at ``phases`` of every case, each its own array, evaluated in chunks of phases.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    h : numpy.ndarray
+        Step size per case, s, shape (case,).
+    phases : numpy.ndarray
+        Where to evaluate, in steps of ``h`` (fractional allowed), shape (phase,).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``mass``, ``damping``, ``stiffness`` (case, phase, ny, ny), ``force`` (case, phase, ny)
+        and ``projection`` (case, phase, nz, nfree); ``mass`` and ``damping`` are absent where
+        no effect forms them.
+    """
     layout = model.layout
     per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
     chunk = int(max(4, _CHUNK_BYTES // max(per_phase, 1)))
