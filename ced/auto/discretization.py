@@ -36,28 +36,57 @@ that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, n
    per flexible link plus static load vectors (component-mode synthesis, truncation below 1e-5
    on the reference four-bar), whichever costs less.
 
-One discretization serves all ``auto`` scenes of a call, the most demanding one's, so that
+5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
+   a sweep (:func:`sweeps`). Every case solves the first rung, with its own modal analysis; the
+   ladders are climbed by every :data:`STRIDE`-th case in the order of speed and the last
+   (:func:`representatives`). A case between two climbers is predicted to err
+   :data:`INTERPOLATION_MARGIN` times the larger of their errors at the chosen setting, and
+   that prediction is verified before it is used (:func:`unverified`): where it exceeds
+   tolerance / :data:`SAFETY`, or where the same rule applied to a climber from its climbing
+   neighbours under-predicts its own ladder (leave-one-out: the error varies faster in speed
+   than the climbers resolve), the middle case of the gap climbs too (bisection, until every
+   gap is verified or has no case left in it); a case whose excitable first mode needs finer
+   steps than both its climbers' time ladders reached climbs itself. No case takes the shared
+   setting on a prediction that was not checked, and in the worst case every case climbs, as
+   without sharing. Speed is the one parameter shared over: it is scalar (a gap has two
+   ends), it is what sweeps vary, and it leaves the structure alone; link lengths change the
+   family and meet singular positions (the change point), material and section change the
+   natural frequencies and the balance of axial and bending stress together, so cases near
+   in them need not have similar ladders, and several of them at once leave no order to
+   bisect in.
+   From a start transient the ladders vary much faster in speed than in the steady state (the
+   benchmark's undeformed sweep: neighbouring speeds' own choices range from 48 to 1624 steps
+   per revolution, where its periodic sweep's are smooth): there bisection climbs about half
+   of the cases, in the steady state about a fifth. Sharing saves where the most demanding
+   case stands out: where every case of a sweep needs about the same setting, the climbers'
+   errors at it sit near tolerance / :data:`SAFETY`, no gap can be bounded by
+   :data:`INTERPOLATION_MARGIN` times them, and every case climbs (raising the setting by that
+   factor instead would cost more: √3 times the steps).
+
+One discretization serves all ``auto`` scenes of a call, the most demanding climber's, so that
 they share one time grid (one ``step`` dimension) and batch together. Per case the variable
-``discretization_auto`` (JSON) records the choice, the case's own choice, both ladders, the
-predicted error and whether the tolerance was reachable within the ladders' limits (where it
-was not, the ladders' finest rungs are used and ``status`` has ``tolerance_unmet``). The
-predicted error at the chosen setting is also the case's ``error_estimate``: the ladders are
-its companion solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases).
-Cases that differ only in name share one set of ladders: a batch of identical cases pays for
-one case's pilots.
+``discretization_auto`` (JSON) records the choice and the predicted error, and whether the
+tolerance was reachable within the ladders' limits (where it was not, the ladders' finest
+rungs are used and ``status`` has ``tolerance_unmet``); a climber also its own choice and both
+ladders (``ladder: own``), a case that did not climb the two climbers whose ladders bound it
+(``ladder: interpolated``, ``ladder_cases``, ``interpolation_margin``). The predicted error at
+the chosen setting is also the case's ``error_estimate``: the ladders are its companion
+solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases). Cases that differ
+only in name share one set of ladders: a batch of identical cases pays for one case's pilots.
 """
 from __future__ import annotations
 
 import copy
 import math
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
 from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
-           "choose", "cost", "MODES", "SAFETY"]
+           "choose", "cost", "sweeps", "representatives", "bracket", "unverified", "MODES",
+           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
@@ -80,6 +109,19 @@ RESONANT_HARMONICS, RESOLVED = 16, 0.5
 #: each ladder's extrapolated limit, which is itself uncertain by up to the last rung's error
 #: (at most tolerance / (2 SAFETY)): the margin covers the two.
 SAFETY = 1.5
+#: Every STRIDE-th case of a sweep (its cases sorted by speed) climbs the ladders, and both
+#: ends: 14 of the benchmark's 100 speeds (module docstring, stage 5).
+STRIDE = 8
+#: A case of a sweep that does not climb is predicted to err at most INTERPOLATION_MARGIN times
+#: the larger of its two bracketing climbers' errors at the chosen setting. Measured on the
+#: ladders of every case of the benchmark's 100-speed sweep (undeformed start, strides 4–11;
+#: periodic start, strides 4–33), the whole procedure replayed on them: with 3 every case's
+#: own-ladder error at the chosen setting was within its prediction; with 2 one case of the
+#: undeformed sweep (95.45 rad/s, 1.6 %) was missed by 3.3–3.8× at strides 6 and 11, with 1.5
+#: by up to 5×. The bound is the larger error times a factor, not the larger plus a multiple of
+#: the two's difference: that one bounded sweeps whose cases all need the same setting, but it
+#: missed the same case by 4× at stride 11.
+INTERPOLATION_MARGIN = 3.0
 #: Solve time per case, ms, of a batch of 4 on one core (least squares over the convergence
 #: study's Euler–Bernoulli generalized-α settings, the full mesh up to 4 elements and reduced
 #: meshes above; within −20 %/+25 % of the measured time for 90 % of them):
@@ -293,6 +335,53 @@ def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[li
     return peaks
 
 
+class _Climbed(NamedTuple):
+    """A case's ladders, each (levels, errors), and the steps of its space ladder."""
+
+    space: tuple
+    time: tuple
+    space_steps: int
+
+
+def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
+           resolved_at: np.ndarray, budget: list[float]) -> list[_Climbed]:
+    """Stages 1–2 of the module docstring for each scene, batched across them: the time ladder
+    from its first rung (``first_peaks``, solved with the modal analysis), then the space
+    ladder at the coarsest time rung within the tolerance (else the finest)."""
+    known = [{0: peak} for peak in first_peaks]
+    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
+
+    def time_done(j: int, peaks: list[float]) -> bool:
+        steps = FIRST_STEPS << (len(peaks) - 1)
+        return (len(peaks) >= 3 and steps >= resolved_at[j]
+                and ladder_errors(peaks)[-1] <= budget[j])
+
+    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
+                                                 [FIRST_STEPS << r] * len(work)),
+                         time_done, n_time, known)
+    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
+    time_errors = [ladder_errors(p) for p in time_peaks]
+
+    space_steps = []
+    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
+        within = np.flatnonzero(errors <= work[j]["tolerance"])
+        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
+    rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
+    at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
+    known = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
+             for peaks, steps in zip(time_peaks, space_steps)]
+
+    def space_done(j: int, peaks: list[float]) -> bool:
+        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
+
+    space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
+                          space_done, len(rungs_x), known)
+    return [_Climbed((np.array(rungs_x[:len(sp)], float), ladder_errors(sp, order=2.0)),
+                     (levels, errors), steps)
+            for sp, levels, errors, steps in zip(space_peaks, time_levels, time_errors,
+                                                 space_steps)]
+
+
 def _pilot_key(scene: dict):
     """A hashable key of a normalized scene without its name: equal keys, equal pilots."""
     def key(value):
@@ -306,12 +395,149 @@ def _pilot_key(scene: dict):
     return key(scene)
 
 
+def _sweep_key(scene: dict):
+    """:func:`_pilot_key` without the drive speed: equal keys, one sweep in speed."""
+    drive = {k: v for k, v in scene["drive"].items() if k != "speed"}
+    return _pilot_key({**scene, "drive": drive})
+
+
+def sweeps(keys: list, speeds) -> list[np.ndarray]:
+    """Cases that differ only in their speed, each group sorted by speed.
+
+    Parameters
+    ----------
+    keys : list of hashable
+        Each case's scene without its name and speed (:func:`_sweep_key`).
+    speeds : array_like
+        Each case's input speed, rad/s.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Per sweep the indices of its cases, by increasing speed (ties by index); in the order
+        of each sweep's first case.
+    """
+    speeds = np.asarray(speeds, float)
+    groups: dict = {}
+    for i, key in enumerate(keys):
+        groups.setdefault(key, []).append(i)
+    return [np.array(sorted(g, key=lambda i: (speeds[i], i)), int) for g in groups.values()]
+
+
+def representatives(n: int, stride: int = STRIDE) -> np.ndarray:
+    """Positions, in a sweep of ``n`` cases sorted by speed, of the cases that climb first:
+    every ``stride``-th and the last, so that no case lies outside two climbers.
+
+    Parameters
+    ----------
+    n : int
+        Cases in the sweep.
+    stride : int
+        Positions between climbers (1: every case climbs).
+
+    Returns
+    -------
+    numpy.ndarray
+        Sorted positions (int), 0 and n − 1 included.
+    """
+    return np.unique(np.append(np.arange(0, n, max(1, stride)), n - 1))
+
+
+def bracket(climbed, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The climbers on either side of each position of a sweep (a climber is its own pair).
+
+    Parameters
+    ----------
+    climbed : array_like of int
+        Sorted positions of the climbers, 0 and n − 1 included.
+    n : int
+        Cases in the sweep.
+
+    Returns
+    -------
+    below, above : numpy.ndarray
+        Per position the nearest climber at or below it and at or above it.
+    """
+    climbed = np.asarray(climbed, int)
+    position = np.arange(n)
+    above = climbed[np.searchsorted(climbed, position, side="left")]
+    below = climbed[np.searchsorted(climbed, position, side="right") - 1]
+    return below, above
+
+
+def unverified(climbed, errors, top_steps, need_steps, bar: float,
+               margin: float = INTERPOLATION_MARGIN) -> np.ndarray:
+    """Positions of a sweep whose prediction from the climbers cannot be trusted, to climb.
+
+    A position between two climbers is predicted to err ``margin`` × the larger of their errors
+    at the chosen setting. The prediction is not trusted, and the middle of the gap climbs
+    next (bisection), where it exceeds ``bar``, or where it fails at a climber itself: its
+    error above ``margin`` × its climbing neighbours' (leave-one-out cross-validation: the
+    error varies faster in speed than the spacing resolves). A position whose excitable first
+    mode needs more steps per revolution than both climbers' time ladders reached climbs
+    itself: their ladders did not look where its error may be.
+
+    Parameters
+    ----------
+    climbed : array_like of int
+        Sorted positions of the climbers, 0 and n − 1 included (n = len(need_steps)).
+    errors : array_like
+        Each climber's predicted error at the chosen setting (:func:`predicted_error`).
+    top_steps : array_like
+        Finest rung of each climber's time ladder, steps per revolution.
+    need_steps : array_like
+        Steps per revolution each position's first mode needs to be resolved (0 where the crank
+        harmonics cannot excite it).
+    bar : float
+        Largest error a prediction may have: tolerance / :data:`SAFETY`.
+    margin : float
+        :data:`INTERPOLATION_MARGIN`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Sorted positions to climb (none when every prediction is trusted).
+    """
+    climbed, errors = np.asarray(climbed, int), np.asarray(errors, float)
+    need = np.asarray(need_steps, float)
+    out = set()
+    # Leave-one-out at the inner climbers: a failure there opens both gaps around it.
+    suspect = np.zeros(len(climbed), bool)
+    inner = errors[1:-1] > margin * np.maximum(errors[:-2], errors[2:])
+    suspect[1:-1] |= inner
+    for k, (low, high) in enumerate(zip(climbed[:-1], climbed[1:])):
+        if high - low < 2:
+            continue
+        failed = suspect[k] or suspect[k + 1] or margin * max(errors[k], errors[k + 1]) > bar
+        if failed:
+            out.add((low + high) // 2)
+        reached = max(top_steps[k], top_steps[k + 1])
+        out.update(int(p) for p in np.flatnonzero(need[low + 1:high] > reached) + low + 1)
+    return np.array(sorted(out), int)
+
+
 def _flexible_links(scene: dict) -> int:
     return sum(bool(link["flexible"]) for link in scene["links"].values())
 
 
-def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[dict],
-                                                                          list[dict]]:
+def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
+    chosen = copy.deepcopy(scene)
+    chosen["discretization"] = {"formulation": "euler_bernoulli", "elements_per_link": elements,
+                                "elements_across": 2, "modes_per_link": modes}
+    chosen["time"]["steps_per_revolution"] = steps
+    return chosen
+
+
+def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
+    elements, steps, predicted, _ = choice
+    return {"own_choice": [elements, steps], "own_predicted_error": predicted,
+            "time_ladder": [[int(n), float(e)] for n, e in zip(*climbed.time)],
+            "space_ladder": [[int(n), float(e)] for n, e in zip(*climbed.space)],
+            "space_ladder_steps_per_revolution": climbed.space_steps}
+
+
+def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = STRIDE
+                           ) -> tuple[list[dict], list[dict]]:
     """Replace ``discretization: auto`` in normalized scenes by a chosen discretization.
 
     Parameters
@@ -323,6 +549,9 @@ def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[di
         first natural frequency over the cycle, rad/s, when the scenes ask for a modal
         analysis), ``speed`` (rad/s); injected by :mod:`ced.simulation.simulate` so the pilots are
         batched like any run.
+    stride : int, optional
+        Cases of a sweep between its first climbers (:func:`representatives`; 1: every
+        distinct case climbs its own ladders).
 
     Returns
     -------
@@ -343,90 +572,77 @@ def resolve_discretization(scenes: list[dict], solve: Callable) -> tuple[list[di
     work = [scenes[i] for i in auto]
     budget = [s["tolerance"] / (2.0 * SAFETY) for s in work]
 
-    # Stage 1: the first rung, with the frozen modal analysis.
+    # Stage 1's first rung for every distinct case, with the frozen modal analysis: each case's
+    # own first frequency decides what its time ladder would have to resolve.
     first = [_pilot(s, LADDER_ELEMENTS, FIRST_STEPS) for s in work]
     for s in first:
         s["modal"] = {"modes": 1, "angles": 4, "mode_shapes": False}
     solved = solve(first)
     omega1, speed = solved["omega1"], solved["speed"]
-    known = [{0: float(peak)} for peak in solved["peak"]]
+    first_peaks = [float(peak) for peak in solved["peak"]]
     # The time ladder must resolve a mode the crank harmonics can excite (ω₁h ≤ 1/2).
     excited = omega1 <= RESONANT_HARMONICS * speed
     resolved_at = np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0)
-    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
 
-    def time_done(j: int, peaks: list[float]) -> bool:
-        steps = FIRST_STEPS << (len(peaks) - 1)
-        return (len(peaks) >= 3 and steps >= resolved_at[j]
-                and ladder_errors(peaks)[-1] <= budget[j])
+    # Stage 5: sweeps climb from representatives; gaps that cannot be trusted are bisected.
+    groups = sweeps([_sweep_key(s) for s in work], [s["drive"]["speed"] for s in work])
+    climbed = [set(g[representatives(len(g), stride)].tolist()) for g in groups]
+    ladders: dict[int, _Climbed] = {}
+    choices: dict[int, tuple] = {}
+    while True:
+        new = sorted(j for c in climbed for j in c if j not in ladders)
+        for j, ladder in zip(new, _climb([work[j] for j in new], solve,
+                                         [first_peaks[j] for j in new], resolved_at[new],
+                                         [budget[j] for j in new])):
+            ladders[j] = ladder
+            choices[j] = choose(ladder.space, ladder.time, work[j]["tolerance"],
+                                work[j]["time"]["revolutions"], _flexible_links(work[j]))
+        # One discretization for the call, the most demanding climber's: the cases then share
+        # one time grid (a dataset has one step dimension) and batch together.
+        elements = max(c[0] for c in choices.values())
+        steps = max(c[1] for c in choices.values())
+        error = {j: float(predicted_error(ladders[j].space, ladders[j].time, elements, steps))
+                 for j in ladders}
+        more = False
+        for g, c in zip(groups, climbed):
+            at = sorted(g.tolist().index(j) for j in c)
+            bisect = unverified(at, [error[g[p]] for p in at],
+                                [ladders[g[p]].time[0][-1] for p in at], resolved_at[g],
+                                work[g[0]]["tolerance"] / SAFETY)
+            c.update(g[bisect].tolist())
+            more |= bool(len(bisect))
+        if not more:
+            break
 
-    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
-                                                 [FIRST_STEPS << r] * len(work)),
-                         time_done, n_time, known)
-    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
-    time_errors = [ladder_errors(p) for p in time_peaks]
-
-    # Stage 2: the space ladder at the coarsest rung within the tolerance (else the finest).
-    space_steps = []
-    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
-        within = np.flatnonzero(errors <= work[j]["tolerance"])
-        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
-    rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
-    at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
-    known = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
-             for peaks, steps in zip(time_peaks, space_steps)]
-
-    def space_done(j: int, peaks: list[float]) -> bool:
-        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
-
-    space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
-                          space_done, len(rungs_x), known)
-
-    choices, ladders = [], []
-    for j, i in enumerate(auto):
-        scene = scenes[i]
-        space = (np.array(rungs_x[:len(space_peaks[j])], float),
-                 ladder_errors(space_peaks[j], order=2.0))
-        time = (time_levels[j], time_errors[j])
-        elements, steps, predicted, full = choose(
-            space, time, scene["tolerance"], scene["time"]["revolutions"],
-            _flexible_links(scene))
-        choices.append((elements, steps))
-        ladders.append((space, time))
-        reports[i] = {
-            "own_choice": [elements, steps], "own_predicted_error": predicted,
-            "tolerance": scene["tolerance"],
-            "time_ladder": [[int(n), float(e)] for n, e in zip(*time)],
-            "space_ladder": [[int(n), float(e)] for n, e in zip(*space)],
-            "space_ladder_steps_per_revolution": space_steps[j],
-            "first_frequency": float(omega1[j]) / (2.0 * math.pi)}
-    # One discretization for the call, the most demanding case's: the cases then share one
-    # time grid (a dataset has one step dimension) and batch together; every case meets its
-    # tolerance with it.
-    elements = max(e for e, _ in choices)
-    steps = max(s for _, s in choices)
-    flexible = max(_flexible_links(scenes[i]) for i in auto)
-    revolutions = max(scenes[i]["time"]["revolutions"] for i in auto)
+    flexible = max(_flexible_links(s) for s in work)
+    revolutions = max(s["time"]["revolutions"] for s in work)
     modes = 0 if bool(cost(elements, steps, revolutions, flexible)[1]) else MODES
+    for g, c in zip(groups, climbed):
+        at = sorted(g.tolist().index(j) for j in c)
+        below, above = bracket(at, len(g))
+        for position, j in enumerate(g):
+            i = auto[j]
+            report = {"tolerance": work[j]["tolerance"],
+                      "first_frequency": float(omega1[j]) / (2.0 * math.pi),
+                      "elements_per_link": elements, "steps_per_revolution": steps,
+                      "modes_per_link": modes, "formulation": "euler_bernoulli"}
+            if j in ladders:
+                # The case's predicted error at the shared setting: its error estimate (the
+                # ladders are its companions, ``ced.simulation.simulate``).
+                predicted = error[j]
+                report.update(_ladder_report(ladders[j], choices[j]), ladder="own")
+            else:
+                # Not climbed: bounded by its climbing neighbours in speed, verified above.
+                pair = [int(g[below[position]]), int(g[above[position]])]
+                predicted = INTERPOLATION_MARGIN * max(error[k] for k in pair)
+                report.update(ladder="interpolated", ladder_cases=[auto[k] for k in pair],
+                              interpolation_margin=INTERPOLATION_MARGIN)
+            report.update(predicted_error=predicted,
+                          tolerance_met=bool(predicted <= work[j]["tolerance"]))
+            reports[i] = report
     out = list(scenes)
-    ladder_of = dict(zip(auto, ladders))
     for i, scene in enumerate(scenes):
-        if scene["discretization"] != "auto":
-            continue
-        first = representative[_pilot_key(scene)]
-        space, time = ladder_of[first]
-        reports[i] = copy.deepcopy(reports[first])
-        # The case's predicted error at the shared setting: its error estimate (the ladders
-        # are its companions, ``ced.simulation.simulate``).
-        predicted = float(predicted_error(space, time, elements, steps))
-        reports[i].update(predicted_error=predicted,
-                          tolerance_met=bool(predicted <= scenes[i]["tolerance"]))
-        chosen = copy.deepcopy(scenes[i])
-        chosen["discretization"] = {"formulation": "euler_bernoulli",
-                                    "elements_per_link": elements, "elements_across": 2,
-                                    "modes_per_link": modes}
-        chosen["time"]["steps_per_revolution"] = steps
-        out[i] = chosen
-        reports[i].update(elements_per_link=elements, steps_per_revolution=steps,
-                          modes_per_link=modes, formulation="euler_bernoulli")
+        if scene["discretization"] == "auto":
+            reports[i] = copy.deepcopy(reports[representative[_pilot_key(scene)]])
+            out[i] = _setting_for(scene, elements, steps, modes)
     return out, reports

@@ -7,9 +7,11 @@ import pytest
 import yaml
 from hypothesis import given, settings, strategies as st
 
-from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, MAX_LADDER_STEPS, MODES,
-                                     RESONANT_HARMONICS, SAFETY, choose, cost, interpolate,
-                                     ladder_errors, predicted_error, resolve_discretization)
+from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, INTERPOLATION_MARGIN,
+                                     MAX_LADDER_STEPS, MODES, RESONANT_HARMONICS, SAFETY,
+                                     _sweep_key, bracket, choose, cost, interpolate,
+                                     ladder_errors, predicted_error, representatives,
+                                     resolve_discretization, sweeps, unverified)
 from ced.problem.scene import load_scene
 from ced.simulation.simulate import simulate
 
@@ -234,3 +236,164 @@ def test_identical_scenes_share_their_pilots():
     resolve_discretization([raw(1e-2)], fake_solver(peak, log=other_log))
     resolve_discretization(copies + [raw(1e-2)], fake_solver(peak, log=mixed_log))
     assert sorted(mixed_log) == sorted(alone_log + other_log)
+
+
+# Sweeps in speed share their ladders (module docstring, stage 5).
+
+def sweep_solver(peak, omega1=lambda speed: 1e9, log=None):
+    """A solve() whose peak(elements, steps, speed) and first frequency (rad/s) depend on the
+    speed; ``log`` gets (speed, elements, steps) per pilot."""
+    def solve(scenes):
+        out = {"peak": [], "omega1": [], "speed": []}
+        for s in scenes:
+            ne = s["discretization"]["elements_per_link"]
+            spr = s["time"]["steps_per_revolution"]
+            speed = s["drive"]["speed"]
+            if log is not None:
+                log.append((speed, ne, spr))
+            out["peak"].append(peak(ne, spr, speed))
+            out["omega1"].append(omega1(speed) if s["modal"] else np.nan)
+            out["speed"].append(speed)
+        return {k: np.array(v) for k, v in out.items()}
+    return solve
+
+
+def speed_sweep(speeds, tolerance=1e-2):
+    return [load_scene(reference_raw(discretization="auto", tolerance=tolerance,
+                                     drive={"speed": float(v)}, name=f"{v:g} rad/s"))
+            for v in speeds]
+
+
+def test_sweeps_group_cases_that_differ_only_in_speed():
+    scenes = speed_sweep([120.0, 100.0, 110.0]) + speed_sweep([100.0], tolerance=1e-3)
+    longer = reference_raw(discretization="auto", tolerance=1e-2)
+    longer["mechanism"] = {**longer["mechanism"], "coupler": 0.46}
+    scenes.append(load_scene(longer))
+    groups = sweeps([_sweep_key(s) for s in scenes], [s["drive"]["speed"] for s in scenes])
+    assert [g.tolist() for g in groups] == [[1, 2, 0], [3], [4]]
+
+
+@given(n=st.integers(1, 300), stride=st.integers(1, 40))
+def test_representatives_bracket_every_case(n, stride):
+    climbed = representatives(n, stride)
+    assert climbed[0] == 0 and climbed[-1] == n - 1 and np.all(np.diff(climbed) > 0)
+    assert np.all(np.diff(climbed) <= stride)
+    below, above = bracket(climbed, n)
+    assert np.all(below <= np.arange(n)) and np.all(np.arange(n) <= above)
+    # The two are neighbouring climbers (no climber strictly between them).
+    inside = (climbed[None, :] > below[:, None]) & (climbed[None, :] < above[:, None])
+    assert not inside.any()
+
+
+@given(data=st.data(), n=st.integers(2, 60), stride=st.integers(1, 12),
+       bar=st.floats(1e-4, 1e-1))
+@settings(max_examples=200, deadline=None)
+def test_a_sweep_left_unverified_has_only_checked_predictions(data, n, stride, bar):
+    climbed = representatives(n, stride)
+    errors = np.array(data.draw(st.lists(st.floats(0.0, 0.2), min_size=len(climbed),
+                                         max_size=len(climbed))))
+    top = np.array(data.draw(st.lists(st.sampled_from([128, 256, 512]),
+                                      min_size=len(climbed), max_size=len(climbed))))
+    need = np.array(data.draw(st.lists(st.sampled_from([0.0, 100.0, 300.0, 600.0]),
+                                       min_size=n, max_size=n)))
+    more = unverified(climbed, errors, top, need, bar)
+    assert not set(more.tolist()) & set(climbed.tolist())
+    assert np.all((more > 0) & (more < n - 1))
+    if len(more):
+        return
+    # Nothing left to climb: every case between climbers is bounded within the bar, the rule
+    # held at every climber, and its first mode needs no finer steps than theirs reached.
+    m = INTERPOLATION_MARGIN
+    for k, (low, high) in enumerate(zip(climbed[:-1], climbed[1:])):
+        if high - low < 2:
+            continue
+        assert m * max(errors[k], errors[k + 1]) <= bar
+        assert np.all(need[low + 1:high] <= max(top[k], top[k + 1]))
+        for c in (k, k + 1):
+            if 0 < c < len(climbed) - 1:
+                assert errors[c] <= m * max(errors[c - 1], errors[c + 1])
+
+
+def climbers(log, first_steps=FIRST_STEPS):
+    """Speeds whose pilots went beyond the first rung."""
+    return {speed for speed, ne, spr in log if (ne, spr) != (8, first_steps)}
+
+
+def test_a_sweep_climbs_from_representatives_and_shares_their_ladders():
+    # The time error grows steeply with speed and the space error is negligible: the fastest
+    # case sets the steps and most others are far enough below the bar for their climbing
+    # neighbours to bound them. (Where all need about the same, all climb: module docstring.)
+    speeds = np.linspace(90.0, 110.0, 33)
+
+    def peak(ne, spr, speed):
+        return 1.0 + 1e-5 / ne**3 - 20.0 * (speed / 110.0) ** 12 / spr**2
+
+    log = []
+    chosen, reports = resolve_discretization(speed_sweep(speeds), sweep_solver(peak, log=log))
+    own = {float(s["drive"]["speed"]) for s, r in zip(chosen, reports) if r["ladder"] == "own"}
+    assert own == climbers(log) and len(own) < len(speeds)
+    assert set(speeds[representatives(len(speeds))]) <= own
+    spr = chosen[0]["time"]["steps_per_revolution"]
+    ne = chosen[0]["discretization"]["elements_per_link"]
+    for scene, report in zip(chosen, reports):
+        speed = scene["drive"]["speed"]
+        # Every case: one first rung of its own; the others' ladders are not climbed again.
+        assert sum(1 for s, *_ in log if s == speed and (_[0], _[1]) == (8, FIRST_STEPS)) == 1
+        true = abs(1e-5 / ne**3 - 20.0 * (speed / 110.0) ** 12 / spr**2)
+        assert true <= report["predicted_error"] <= 1e-2 and report["tolerance_met"]
+        if report["ladder"] == "interpolated":
+            low, high = report["ladder_cases"]
+            assert chosen[low]["drive"]["speed"] < speed < chosen[high]["drive"]["speed"]
+            assert reports[low]["ladder"] == reports[high]["ladder"] == "own"
+            assert report["predicted_error"] == pytest.approx(INTERPOLATION_MARGIN * max(
+                reports[low]["predicted_error"], reports[high]["predicted_error"]))
+
+
+def test_a_case_between_representatives_that_they_do_not_predict_climbs_its_own():
+    # 17 speeds, climbers at 0, 8 and 16 first, whose errors are small enough to bound the
+    # others. Case 5 has a first mode at 15× its speed, which its time ladder would resolve to
+    # 256 steps while the others stop at 128: it climbs itself, and its large time error sets
+    # the steps for all.
+    speeds = np.arange(90.0, 107.0)
+    odd = speeds[5]
+
+    def peak(ne, spr, speed):
+        return 1.0 + 1e-5 / ne**3 - (400.0 if speed == odd else 0.05) / spr**2
+
+    log = []
+    chosen, reports = resolve_discretization(
+        speed_sweep(speeds), sweep_solver(peak, lambda v: 15.0 * v if v == odd else 1e9, log))
+    assert reports[5]["ladder"] == "own" and max(s for v, _, s in log if v == odd) >= 256
+    assert not any(s > 128 for v, _, s in log if v != odd)
+    spr = chosen[5]["time"]["steps_per_revolution"]
+    assert spr >= reports[5]["own_choice"][1] and 400.0 / spr**2 < 1e-2
+    # A smooth bump between the first climbers fails their bound: the gap is bisected until
+    # the bump's case has climbed and set the steps.
+    log = []
+
+    def bump(ne, spr, speed):
+        return 1.0 + 0.3 / ne**3 - 5.0 * (1 + 40.0 * np.exp(-(speed - 94.0) ** 2)) / spr**2
+
+    chosen, reports = resolve_discretization(speed_sweep(speeds), sweep_solver(bump, log=log))
+    assert reports[4]["ladder"] == "own" and 94.0 in climbers(log)
+    spr, ne = (chosen[0]["time"]["steps_per_revolution"],
+               chosen[0]["discretization"]["elements_per_link"])
+    for speed, report in zip(speeds, reports):
+        true = abs(0.3 / ne**3 - 5.0 * (1 + 40.0 * np.exp(-(speed - 94.0) ** 2)) / spr**2)
+        assert true <= report["predicted_error"] <= 1e-2
+
+
+def test_every_case_climbing_gives_each_case_its_own_ladders():
+    # stride=1 is the resolution without sharing: each case's report is the one it gets alone
+    # (a batch of identical cases likewise, test_identical_scenes_share_their_pilots).
+    speeds = [95.0, 100.0, 105.0]
+
+    def peak(ne, spr, speed):
+        return 1.0 + 0.3 / ne**3 - 20.0 * speed / 100.0 / spr**2
+
+    _, together = resolve_discretization(speed_sweep(speeds), sweep_solver(peak), stride=1)
+    for scene, report in zip(speed_sweep(speeds), together):
+        _, (alone,) = resolve_discretization([scene], sweep_solver(peak))
+        for key in ("own_choice", "own_predicted_error", "time_ladder", "space_ladder"):
+            assert report[key] == alone[key]
+        assert report["ladder"] == "own"

@@ -1,0 +1,145 @@
+"""What ``discretization: auto``'s pilots cost on the benchmark's sweep, with and without sharing.
+
+Run ``python benchmarks/auto_pilots.py`` (about two minutes on 2 cores); results go to
+``benchmarks/auto_pilots.json`` and are printed. One process, one BLAS thread.
+
+The sweep of ``benchmarks/run.py`` (reference flexible four-bar, 100 speeds 90–110 rad/s, two
+revolutions from the undeformed state) with ``tolerance: 1e-2`` and ``discretization: auto``,
+through :func:`ced.simulate`, resolved two ways in the same run, interleaved, three times each:
+every distinct case climbing its own ladders (``stride=1``, as before sharing) and sweeps
+sharing them (:data:`ced.auto.discretization.STRIDE`). Per run: the wall time of the pilots
+(all of :func:`~ced.auto.discretization.resolve_discretization`) and of the whole call, and
+their CPU times (the machine is shared: CPU time depends less on the other load), the
+pilot solves, the cases that climbed and the setting chosen. The same sweep from a periodic
+start is timed alike (its ladders vary smoothly in speed). The chosen settings' true error is
+measured at six speeds (the ends, the speed whose ladder sets the steps, and three more)
+against ced's converged value (16 elements, every FE DOF, 8192 steps per revolution), on peak
+stress (what ``tolerance`` is about) and on peak coupler strain (what ``run.py`` compares).
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import sweep  # noqa: E402  (imports single_thread: one BLAS thread)
+
+import numpy as np  # noqa: E402
+
+import ced.simulation.simulate as simulate_module  # noqa: E402
+from ced.auto import discretization  # noqa: E402
+from ced.response.batch import make_batch  # noqa: E402
+
+RESULTS = HERE / "auto_pilots.json"
+TOLERANCE = 1e-2
+#: Speeds (indices into sweep.SPEEDS) whose true error is measured: the ends, 95.45 rad/s
+#: (its time ladder sets 1624 steps per revolution for the sweep) and three more.
+CHECKED = [0, 20, 27, 50, 75, 99]
+
+
+def scenes(start: str) -> list[dict]:
+    return [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)}, "tolerance": TOLERANCE,
+             "discretization": "auto", "time": {"revolutions": 2, "start": start}}
+            for s in sweep.SPEEDS]
+
+
+def timed_auto(raw: list[dict], stride: int) -> tuple[dict, object]:
+    """One ``simulate`` call with the pilots resolved at ``stride``: its times and dataset."""
+    spent = {}
+
+    def resolve(normalized, solve):
+        solves = [0]
+
+        def counted(pilots):
+            solves[0] += len(pilots)
+            return solve(pilots)
+
+        t0, c0 = time.perf_counter(), time.process_time()
+        out = discretization.resolve_discretization(normalized, counted, stride=stride)
+        spent.update(pilots=time.perf_counter() - t0, cpu=time.process_time() - c0,
+                     solves=solves[0])
+        return out
+
+    original = simulate_module.resolve_discretization
+    simulate_module.resolve_discretization = resolve
+    try:
+        t0, c0 = time.perf_counter(), time.process_time()
+        ds = simulate_module.simulate(raw)
+        total, cpu = time.perf_counter() - t0, time.process_time() - c0
+    finally:
+        simulate_module.resolve_discretization = original
+    reports = [json.loads(str(v)) for v in ds.discretization_auto.values]
+    return {"stride": stride, "seconds_total": total, "seconds_pilots": spent["pilots"],
+            "pilot_share": spent["pilots"] / total, "cpu_seconds_total": cpu,
+            "cpu_seconds_pilots": spent["cpu"], "pilot_share_cpu": spent["cpu"] / cpu,
+            "pilot_solves": spent["solves"],
+            "cases_climbed": sum(r["ladder"] == "own" for r in reports),
+            "setting": [reports[0]["elements_per_link"], reports[0]["steps_per_revolution"],
+                        reports[0]["modes_per_link"]],
+            "max_predicted_error": max(r["predicted_error"] for r in reports),
+            "tolerance_unmet": sum(not r["tolerance_met"] for r in reports)}, ds
+
+
+def compare(start: str, repeat: int = 3) -> tuple[dict, dict]:
+    """Both resolutions of the sweep, interleaved, ``repeat`` times; the datasets of the last."""
+    raw = scenes(start)
+    simulate_module.simulate(raw[:2])  # compile before timing
+    runs, last = {"before": [], "after": []}, {}
+    for _ in range(repeat):
+        for name, stride in (("before", 1), ("after", discretization.STRIDE)):
+            row, last[name] = timed_auto(raw, stride)
+            runs[name].append(row)
+            print(f"{start} {name} (stride {stride}): {row['seconds_total']:.2f} s, pilots "
+                  f"{row['seconds_pilots']:.2f} s ({row['pilot_share']:.0%}; CPU "
+                  f"{row['pilot_share_cpu']:.0%}), "
+                  f"{row['pilot_solves']} pilot solves, {row['cases_climbed']} climbed, "
+                  f"setting {row['setting']}", flush=True)
+    return runs, last
+
+
+def peaks(setting: tuple[int, int, int], indices) -> tuple[np.ndarray, np.ndarray]:
+    """Peak stress (Pa, over the links) and peak coupler strain at sweep.SPEEDS[indices]."""
+    out = sweep.solve_batch(make_batch([sweep.scene(s, *setting)
+                                        for s in sweep.SPEEDS[indices]]))
+    stress = np.nanmax(out["peak_stress"], axis=1)
+    return stress, np.abs(out["bending_strain"][:, :, 1]).max(axis=(1, 2)).astype(float)
+
+
+def true_errors(datasets: dict) -> dict:
+    """Each resolution's true error at the CHECKED speeds against the converged value."""
+    stress_ref, strain_ref = peaks(sweep.CONVERGED, CHECKED)
+    out = {"speeds": [float(s) for s in sweep.SPEEDS[CHECKED]],
+           "reference": list(sweep.CONVERGED)}
+    for name, ds in datasets.items():
+        at = ds.isel(case=CHECKED)
+        stress = at.peak_stress.max("link").values
+        strain = np.abs(at.bending_strain.sel(link="coupler")).max(("step", "station")).values
+        out[name] = {"stress_error": np.abs(stress / stress_ref - 1.0).tolist(),
+                     "strain_error": np.abs(strain / strain_ref - 1.0).tolist()}
+        out[name]["max_stress_error"] = max(out[name]["stress_error"])
+        out[name]["max_strain_error"] = max(out[name]["strain_error"])
+        print(f"{name}: true error at {len(CHECKED)} speeds: stress max "
+              f"{out[name]['max_stress_error']:.2%}, coupler strain max "
+              f"{out[name]['max_strain_error']:.2%}", flush=True)
+    return out
+
+
+def main() -> None:
+    started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    results = {"started": started, "tolerance": TOLERANCE, "cases": len(sweep.SPEEDS),
+               "stride": discretization.STRIDE,
+               "interpolation_margin": discretization.INTERPOLATION_MARGIN}
+    runs, last = compare("undeformed")
+    results["undeformed"] = runs
+    results["undeformed_true_error"] = true_errors(last)
+    results["periodic"], _ = compare("periodic", repeat=2)
+    RESULTS.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()
