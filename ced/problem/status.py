@@ -45,8 +45,9 @@ STATUS_MEANINGS = {
                         "linear (small-deflection) model is stretched",
     "near_singular": "the linkage passes near a toggle or change point (|sin| of the "
                      "transmission angle below 0.1): stiffness and results are sensitive there",
-    "resonant": "a crank harmonic falls in a mode's frequency band over the cycle, or a "
-                "Floquet multiplier near 1 dominates the periodic state",
+    "resonant": "a crank harmonic falls in a mode's frequency band over the cycle, a "
+                "Floquet multiplier near 1 dominates the periodic state, or the spectral "
+                "periodic state could not be resolved",
     "parametrically_unstable": "the periodic state's largest Floquet multiplier exceeds 1: "
                                "vibrations grow from cycle to cycle",
     "failed": "the case could not be solved or its results are not finite; `message` says why",

@@ -97,7 +97,8 @@ class SpectralSteadyState:
 
 
 def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: np.ndarray,
-                          steps: int | None = None) -> SpectralSteadyState:
+                          steps: int | None = None, climb: np.ndarray | None = None
+                          ) -> SpectralSteadyState:
     """Periodic steady state of the ``candidates`` (case,) bool by Fourier collocation, at
     the scene's ``time.collocation_points``: adaptive (``auto``, module docstring) or fixed.
 
@@ -113,6 +114,9 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
         Cases to solve, shape (case,), bool.
     steps : int, optional
         Steps per input period (default: ``period``'s).
+    climb : numpy.ndarray, optional
+        Cases allowed past the first level of the adaptive ladder, shape (case,), bool
+        (default: all); the others keep their first converged series.
 
     Returns
     -------
@@ -158,7 +162,7 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
             out.peak_stress[ok] = peak_stress
             out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
             if adaptive:
-                coarse = ok[tail > TAIL_TOLERANCE]
+                coarse = ok[(tail > TAIL_TOLERANCE) & (True if climb is None else climb[ok])]
                 if points < MAX_POINTS:
                     retry.append(coarse)
                 else:

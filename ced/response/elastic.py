@@ -122,8 +122,6 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
         result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
     relative = result["peak_deflection"] / batch.link_lengths
     status[(relative > LARGE_DEFLECTION).any(axis=1)] |= STATUS_FLAGS["large_deflection"]
-    if not peaks_only:
-        status[forced_resonance(model, period)] |= STATUS_FLAGS["resonant"]
     modal = scene.get("modal")
     if modal and model.layout.ny:
         freq = cycle_frequencies(model, modal_phases(modal["angles"]), modal["modes"])
@@ -158,10 +156,10 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     if not ny:
         return qz, qz.copy(), None
     time_cfg = scene["time"]
+    spectral = time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral"
     # Near a change point or toggle the terms have features narrower than any sampling can
     # see between its samples: a batch holding such a case evaluates every step.
     sharp = bool((status & STATUS_FLAGS["near_singular"]).any())
-    spectral = time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral"
     series = None
     if (spectral and not full and not sharp and time_cfg["collocation_points"] != "auto"
             and "elastic_inertia" in model.effects):
@@ -173,6 +171,8 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         if series.solved.all():
             return None, None, None
     period = period_terms(model, h, time_cfg["steps_per_revolution"], exact=sharp)
+    if full:
+        status[forced_resonance(model, period)] |= STATUS_FLAGS["resonant"]
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     qz_static = None
     if full or quasi_static:
@@ -185,18 +185,10 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     _check_stable_step(model, stability_limit(scheme))
     marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
-    if spectral and series is None:
-        # Near-singular cases are shot: no global Fourier series converges there.
-        series = spectral_steady_state(model, period,
-                                       (status & STATUS_FLAGS["near_singular"]) == 0)
-        _add_series(result, series)
-        # A series the ladder could not resolve: a harmonic sits on a mode so closely that
-        # the undamped response is not determined (the collocation system nearly singular).
-        status[series.unresolved] |= STATUS_FLAGS["resonant"]
-    if time_cfg["start"] == "periodic" and (series is None or full
-                                            or not series.solved.all()):
+    state = None
+    if time_cfg["start"] == "periodic" and (not spectral or full):
         # Shooting gives the Floquet multipliers (from the monodromy of the scene's steps),
-        # and the state of the cases the spectral solver left.
+        # and the state of the cases the spectral solver leaves.
         periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase, full)
         state = from_independent(terms, scheme, *periodic)
         if full:
@@ -204,9 +196,23 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
             result["floquet_multiplier_max"] = largest
             status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
             status[resonant] |= STATUS_FLAGS["resonant"]
-    elif time_cfg["start"] == "periodic":
-        state = None
-    else:
+    if spectral and series is None:
+        # Near-singular cases are shot: no global Fourier series converges there. A case
+        # already flagged resonant or parametrically unstable keeps its first converged series
+        # (the flag says its result is not to be acted on; its tail stays in its estimate):
+        # climbing the ladder there costs most and changes no decision.
+        flagged = STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"]
+        series = spectral_steady_state(model, period,
+                                       (status & STATUS_FLAGS["near_singular"]) == 0,
+                                       climb=(status & flagged) == 0)
+        _add_series(result, series)
+        # A series the ladder could not resolve: a harmonic sits on a mode so closely that
+        # the undamped response is not determined (the collocation system nearly singular).
+        status[series.unresolved] |= STATUS_FLAGS["resonant"]
+    if state is None and time_cfg["start"] == "periodic" and not series.solved.all():
+        periodic, _, _ = shoot(scheme, marcher, h, period.period, ny, ncase, False)
+        state = from_independent(terms, scheme, *periodic)
+    elif state is None and time_cfg["start"] != "periodic":
         q0 = np.zeros((ncase, ny, 1))
         v0 = np.zeros_like(q0)
         if time_cfg["start"] == "quasi_static":

@@ -505,6 +505,7 @@ def _solve_batch(M, C, K, F, has_mass, has_damping, speed, rtol, maxiter, restar
             if its >= maxiter:
                 break
             # one restart cycle: Arnoldi on A B̄⁻¹ from the true residual
+            cycle_start = its
             for i in range(N):
                 V[0, i] = r[i] / rnorm
             g[0] = rnorm
@@ -593,6 +594,12 @@ def _solve_batch(M, C, K, F, has_mass, has_damping, speed, rtol, maxiter, restar
                 x[s] = t[s]
                 r[s] = b[s] - u[s]
             stalled = new > _STALL * rnorm
+            if not stalled and new > target and its < maxiter:
+                # Restarted GMRES converges about linearly from cycle to cycle: where the
+                # rate of this cycle would not reach the target within the iterations left,
+                # even twice as fast, the case ends now instead of at maxiter.
+                rate = np.log(new / rnorm) / (its - cycle_start)
+                stalled = its + 0.5 * np.log(target / new) / rate > maxiter
             rnorm = new
             if stalled:
                 ok = rnorm <= target
