@@ -55,3 +55,32 @@ def test_few_modes_give_the_low_frequencies_and_peak_stress(start):
     reduced = _solve(4, time={**FOUR_BAR["time"], "start": start})
     assert np.allclose(reduced["natural_frequency"], full["natural_frequency"], rtol=1e-3)
     assert np.allclose(reduced["peak_stress"], full["peak_stress"], rtol=0.02)
+
+
+def test_cases_with_the_same_link_share_one_basis(monkeypatch):
+    # A speed sweep with two materials: the basis is computed once per distinct link (the
+    # eigenproblem batch holds one case per material), and every case's reduction equals the
+    # one it gets alone.
+    from ced.fem import component_modes
+    from ced.response.model import build_model
+    sizes = []
+    eigen = component_modes.natural_frequencies
+
+    def spy(K, M, modes, shapes=False):
+        sizes.append(K.shape[0])
+        return eigen(K, M, modes, shapes=shapes)
+    monkeypatch.setattr(component_modes, "natural_frequencies", spy)
+    scenes = [load_scene({**FOUR_BAR, "drive": {"speed": speed},
+                          "links": {**FOUR_BAR["links"], "default": {"material": material}},
+                          "discretization": {"elements_per_link": 6, "modes_per_link": 3}})
+              for material in ("steel", "aluminium") for speed in (60.0, 80.0, 100.0)]
+    batch = build_model(make_batch(scenes))
+    assert sizes == [2, 2]  # coupler and rocker: one basis per material
+    for i, scene in enumerate(scenes):
+        alone = build_model(make_batch([scene]))
+        for name in ("coupler", "rocker"):
+            for field in ("mass", "stiffness", "gyroscopic", "load_constant"):
+                got = getattr(batch.links[name], field)[i]
+                want = getattr(alone.links[name], field)[0]
+                np.testing.assert_allclose(got, want, rtol=1e-12,
+                                           atol=1e-12 * np.abs(want).max())
