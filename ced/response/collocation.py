@@ -37,8 +37,9 @@ import numpy as np
 
 from ..fem.recovery import peaks
 from ..fem.recovery_kernel import recover
+from .batch import make_batch
 from .kernels import expand
-from .model import Model
+from .model import Model, build_model
 from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
 from .spectral import evaluate, solve_periodic
 
@@ -175,9 +176,15 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
 def _evaluate_at_points(model: Model, steps: int, points: int, cases: np.ndarray
                         ) -> dict[str, np.ndarray | None]:
     """The terms at ``points`` equally spaced phases of the period (``steps`` steps) for
-    the given cases, each (case, points, …): evaluated for the whole batch (the model
-    serves all its cases at once), kept for ``cases``."""
-    exact = evaluate_terms(model, model.batch.step_size, np.arange(points) * (steps / points))
+    the given cases, each (case, points, …). A model serves all the cases of its batch at
+    once: for fewer than half of them (the few that climb the ladder) a model of those
+    cases alone is built, which costs less than evaluating the others."""
+    phases = np.arange(points) * (steps / points)
+    if 2 * len(cases) < model.batch.size:
+        sub = build_model(make_batch([model.batch.scenes[i] for i in cases]))
+        exact = evaluate_terms(sub, sub.batch.step_size, phases)
+        return {name: exact.get(name) for name in _TERMS}
+    exact = evaluate_terms(model, model.batch.step_size, phases)
     whole = len(cases) == model.batch.size
     return {name: (None if exact.get(name) is None else exact[name] if whole else
                    np.ascontiguousarray(exact[name][cases])) for name in _TERMS}
