@@ -327,9 +327,10 @@ RETIME_REPEATS, RETIME_CANDIDATES = 3, 3
 
 def _retime(scenes: dict[str, list[dict]]) -> dict[str, float]:
     """Solve time per case of each batch, the fastest of :data:`RETIME_REPEATS` interleaved
-    runs: ratios of times measured side by side are what the comparison needs."""
+    runs: ratios of times measured side by side are what the comparison needs. A batch
+    alone (no sweep setting to compare with) is timed once: there is no ratio to protect."""
     best = {key: np.inf for key in scenes}
-    for _ in range(RETIME_REPEATS):
+    for _ in range(RETIME_REPEATS if len(scenes) > 1 else 1):
         for key, batch in scenes.items():
             best[key] = min(best[key], float(np.median(_measure(batch)["solve_time"])))
     return best

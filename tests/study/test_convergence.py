@@ -104,3 +104,22 @@ def test_convergence_dataset_passes_the_cf_checker(result, tmp_path):
     assert cf_errors(path, tmp_path) == []
     assert json.loads(result.attrs["reference_values"])  # the Richardson references, kept
     assert all(str(v) for v in result.cheapest_label.values)
+
+
+def test_retime_interleaves_only_what_it_compares(monkeypatch):
+    # Side by side, each batch is timed RETIME_REPEATS times, interleaved, and the fastest
+    # kept; a batch with nothing to compare with (no sweep setting meets the tolerance) once.
+    from ced.study import convergence
+    calls = []
+    times = iter([3.0, 5.0, 2.0, 6.0, 4.0, 1.0, 7.0])
+
+    def measure(batch):
+        calls.append(batch[0])
+        return {"solve_time": [next(times)]}
+    monkeypatch.setattr(convergence, "_measure", measure)
+    both = convergence._retime({"auto": ["a"], "sweep": ["s"]})
+    assert calls == ["a", "s"] * convergence.RETIME_REPEATS
+    assert both == {"auto": 2.0, "sweep": 1.0}
+    calls.clear()
+    assert convergence._retime({"auto": ["a"]}) == {"auto": 7.0}
+    assert calls == ["a"]
