@@ -139,14 +139,20 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
 def _response(model: Model, status: np.ndarray, result: dict, full: bool = True):
     """Joint and link displacements z at the output steps, dynamic and quasi-static
     (case, out_step, nz), and the terms over one period (None without elastic DOFs); adds the
-    Floquet results of a periodic start to ``result``.
+    Floquet results of a periodic start, and the series of a spectral one, to ``result``,
+    and the forced-resonance flag to ``status``.
     Without ``full``, neither the quasi-static response (None, unless the model is
-    quasi-static) nor the Floquet analysis.
+    quasi-static) nor the Floquet analysis nor the forced-resonance check; a spectral solve at
+    a fixed number of points then returns (None, None, None) when every case has its series
+    (its peaks are the series', :func:`elastic_response`).
 
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
     is solved over the period only, and, unless it is the response itself (a quasi-static
-    model), returned at the output steps of :func:`_one_period` only."""
+    model), returned at the output steps of :func:`_one_period` only. A spectral periodic
+    state (:mod:`ced.response.collocation`) is found after the shooting and the
+    forced-resonance check, so that flagged cases need not climb its ladder; the cases it
+    leaves are shot and marched."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
