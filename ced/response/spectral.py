@@ -424,6 +424,16 @@ def _norm(x):
 
 
 @nb.njit(**_JIT)
+def _fill(out, x, scale):
+    """out (P, n) = scale × x (P n,), element by element: an array assignment would compile
+    numba's broadcasting with its formatted error messages (seconds of compile time)."""
+    P, n = out.shape
+    for j in range(P):
+        for s in range(n):
+            out[j, s] = scale * x[j * n + s]
+
+
+@nb.njit(**_JIT)
 def _solve_batch(M, C, K, F, has_mass, has_damping, speed, rtol, maxiter, restart,
                  radix2, perm, tw, W, q, iterations, converged, residual):
     """GMRES per case (see :func:`solve_periodic`); fills q, iterations, converged, residual."""
@@ -482,13 +492,13 @@ def _solve_batch(M, C, K, F, has_mass, has_damping, speed, rtol, maxiter, restar
             x[i] = 0.0
         its = 0
         if beta == 0.0:
-            q[c] = 0.0
+            _fill(q[c], x, 0.0)
             iterations[c] = 0
             converged[c] = True
             residual[c] = 0.0
             continue
         if not np.isfinite(beta):
-            q[c] = 0.0
+            _fill(q[c], x, 0.0)
             iterations[c] = 0
             converged[c] = False
             residual[c] = np.inf
@@ -604,7 +614,7 @@ def _solve_batch(M, C, K, F, has_mass, has_damping, speed, rtol, maxiter, restar
             if stalled:
                 ok = rnorm <= target
                 break
-        q[c] = x.reshape(P, n)
+        _fill(q[c], x, 1.0)
         iterations[c] = its
         converged[c] = ok
         residual[c] = rnorm / beta
