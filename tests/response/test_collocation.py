@@ -239,3 +239,32 @@ def test_a_series_the_ladder_cannot_resolve_is_flagged_resonant(monkeypatch, lim
     assert ds.collocation_points.values[0] == START_POINTS
     assert ds.spectral_tail.values[0] > TAIL_TOLERANCE
     assert ds.status.values[0] & STATUS_FLAGS["resonant"]
+
+
+def test_the_few_cases_that_climb_past_the_period_get_the_series_they_get_alone(monkeypatch):
+    # Above the period's samples the terms of the climbing cases are evaluated by a model of
+    # those cases alone (ced.response.collocation._evaluate_at_points): its reduced
+    # coordinates must be the whole batch's, or the recovery would read them wrongly.
+    from ced.response import collocation
+    built = []
+    build = collocation.build_model
+
+    def spy(batch):
+        built.append(batch.size)
+        return build(batch)
+    monkeypatch.setattr(collocation, "build_model", spy)
+    # 64 steps per revolution: the slow case's series climbs past the period's steps.
+    slow = _with(BLIND_SPOT, steps_per_revolution=64)
+    slow["drive"]["speed"] = 50.0
+    slow["mechanism"].update(ground=0.25, crank=0.45, coupler=0.4, rocker=0.25)
+    batch = [_with(BLIND_SPOT, steps_per_revolution=64) for _ in range(3)] + [slow]
+    batch[1]["drive"]["speed"] = 300.0
+    batch[2]["drive"]["speed"] = 350.0
+    ds = simulate(batch)
+    points = ds.collocation_points.values
+    assert points[3] > 64 and (points[:3] <= 64).all()
+    assert 1 in built  # the slow case's own model, beyond the 64 steps of the period
+    alone = simulate([slow])
+    assert alone.collocation_points.values[0] == points[3]
+    np.testing.assert_allclose(ds.peak_stress[3], alone.peak_stress[0], rtol=1e-9)
+    np.testing.assert_allclose(ds.peak_deflection[3], alone.peak_deflection[0], rtol=1e-9)
