@@ -281,7 +281,7 @@ MEANINGS: dict[str, str] = {
     "time.periodic_solver": "how a periodic start finds the steady state: shooting (the "
                             "integrator over one period, exact for its steps) or spectral "
                             "(Fourier collocation, as many harmonics as the response needs; "
-                            "the steps set only the output instants)",
+                            "the steps set the output instants and the Floquet analysis)",
     "time.collocation_points": "Fourier collocation points per input period with "
                                "periodic_solver: spectral: auto (from 32, doubled up to 256 "
                                "while the spectral tail exceeds 0.5 % of the peak stress) or a "
