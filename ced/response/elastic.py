@@ -29,7 +29,7 @@ from .kernels import expand, static_period
 from .marching import Marcher
 from .model import Model, build_model, terms_at
 from .period_terms import PeriodTerms, interpolate_periodic, period_terms
-from .periodic import INSTABILITY_MARGIN, shoot
+from .periodic import INSTABILITY_MARGIN, floquet, monodromy, periodic_state
 from .resonance import forced_resonance
 
 __all__ = ["elastic_response", "thick_links", "LARGE_DEFLECTION", "THICK_LINK_RATIO"]
@@ -192,16 +192,19 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
     state = None
+    one_period = None
     if time_cfg["start"] == "periodic" and (not spectral or full):
-        # Shooting gives the Floquet multipliers (from the monodromy of the scene's steps),
-        # and the state of the cases the spectral solver leaves.
-        periodic, mu, resonant = shoot(scheme, marcher, h, period.period, ny, ncase, full)
-        state = from_independent(terms, scheme, *periodic)
+        # The monodromy of the scene's steps gives the Floquet multipliers, and the periodic
+        # state of the cases the spectral solver leaves (solved for those alone, below).
+        one_period = monodromy(scheme, marcher, h, period.period, ny, ncase)
         if full:
+            mu, resonant = floquet(one_period, ny)
             largest = np.abs(mu).max(axis=-1)
             result["floquet_multiplier_max"] = largest
             status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
             status[resonant] |= STATUS_FLAGS["resonant"]
+        if not spectral:
+            state = from_independent(terms, scheme, *periodic_state(one_period, ny))
     if spectral and series is None:
         # Near-singular cases are shot: no global Fourier series converges there. A case
         # already flagged resonant or parametrically unstable keeps its first converged series
@@ -216,8 +219,10 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         # the undamped response is not determined (the collocation system nearly singular).
         status[series.unresolved] |= STATUS_FLAGS["resonant"]
     if state is None and time_cfg["start"] == "periodic" and not series.solved.all():
-        periodic, _, _ = shoot(scheme, marcher, h, period.period, ny, ncase, False)
-        state = from_independent(terms, scheme, *periodic)
+        if one_period is None:
+            one_period = monodromy(scheme, marcher, h, period.period, ny, ncase)
+        state = from_independent(terms, scheme,
+                                 *periodic_state(one_period, ny, ~series.solved))
     elif state is None and time_cfg["start"] != "periodic":
         q0 = np.zeros((ncase, ny, 1))
         v0 = np.zeros_like(q0)
