@@ -10,10 +10,13 @@ CORES ?= 2
 
 .PHONY: study test docs reference bench bench-memory clean cluster-test
 
+# ced compile: numba's kernels compiled once here (about 20 s), as a C extension would be at
+# install, instead of in the first jobs of every study and test run (ced/compile.py).
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e ".[test]"
+	$(BIN)/ced compile
 	touch $(STAMP)
 
 # The docs extra (Sphinx, numpydoc, sphinx-gallery, MyST) on top of the test install.

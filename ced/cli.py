@@ -1,5 +1,6 @@
 """Command line: ``ced run SCENE.yaml [-o OUT.nc]``, ``ced check CONFIG.yaml``,
-``ced classify --ground … --rocker …``, ``ced ladder SCENE.yaml -o DIR``, ``ced --version``.
+``ced classify --ground … --rocker …``, ``ced ladder SCENE.yaml -o DIR``, ``ced compile``,
+``ced --version``.
 
 Bad input exits with code 2 and a message naming the key path; nothing is written. A run that
 fails for another reason exits 1 with a one-line message. Every subcommand's ``--help`` ends
@@ -127,12 +128,25 @@ def _ladder(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compile(args: argparse.Namespace) -> int:
+    import time
+
+    from .compile import compile_kernels
+
+    start = time.perf_counter()
+    compiled = compile_kernels()
+    print(f"{sum(1 for n in compiled.values() if n)} kernels compiled or loaded from numba's "
+          f"cache in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
 _EXAMPLES = {
     "ced": """examples:
   ced run config/scenes/sung_thompson.yaml        # writes sung_thompson.nc here
   ced check config/studies/test.yaml              # validate a study, estimate size and time
   ced classify --ground 0.5 --crank 0.35 --coupler 0.45 --rocker 0.1
   ced ladder config/scenes/reference_four_bar.yaml -o ladder/
+  ced compile                                     # once after install (make does it)
   ced SUBCOMMAND --help                           # more on each""",
     "run": """examples:
   ced run config/scenes/sung_thompson.yaml               # writes sung_thompson.nc here
@@ -155,6 +169,12 @@ Config keys: docs/reference/config.md.""",
   ced ladder config/scenes/sung_thompson.yaml -o st_ladder/ --link rocker
 
 Writes ladder.md, ladder.json and ladder.png in the directory (docs/fidelity.md).""",
+    "compile": """examples:
+  ced compile                 # about 20 s the first time, 1 s once cached
+
+numba compiles each kernel the first time a process calls it and caches the machine code on
+disk; without this, the first jobs of a study each compile every kernel (about 15 s each).
+The Makefile's install step runs it.""",
 }
 
 
@@ -201,6 +221,10 @@ def _parser() -> argparse.ArgumentParser:
     lad.add_argument("-o", "--output", required=True, help="output directory")
     lad.add_argument("--link", default="coupler", help="link whose results are compared")
     lad.set_defaults(func=_ladder)
+    cmp = _sub(sub, "compile", "compile the numerical kernels into numba's on-disk cache",
+               "Compile every numerical kernel now (one small scene solved), so that the "
+               "first processes of a study load them instead of compiling them.")
+    cmp.set_defaults(func=_compile)
     return parser
 
 
