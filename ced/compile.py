@@ -69,8 +69,9 @@ def compile_kernels() -> dict[str, int]:
     Returns
     -------
     dict
-        Kernel name → number of type signatures it holds afterwards (kernels called only from
-        other kernels hold none: they are compiled into their callers).
+        Kernel name → number of type signatures it holds afterwards. A kernel called only
+        from other kernels holds one where it was compiled in this process and none where its
+        callers came from the cache (they carry it compiled in).
     """
     from .simulation.simulate import simulate
 

@@ -14,7 +14,8 @@ import numpy as np
 from .integrators import Integrator, NewmarkFamily, from_independent, independent
 from .marching import Marcher
 
-__all__ = ["Monodromy", "monodromy", "periodic_state", "floquet", "shoot", "resonant", "RESONANCE_GAP", "RESONANCE_SHARE", "INSTABILITY_MARGIN"]
+__all__ = ["Monodromy", "monodromy", "periodic_state", "floquet", "shoot", "resonant",
+           "RESONANCE_GAP", "RESONANCE_SHARE", "INSTABILITY_MARGIN"]
 
 #: A Floquet multiplier μ with |1 − μ| below this is near resonance: a crank harmonic k within
 #: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ...
