@@ -5,7 +5,8 @@ import numpy as np
 from ced.response.integrators import newmark as average_acceleration
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
-from ced.response.periodic import INSTABILITY_MARGIN, RESONANCE_GAP, shoot
+from ced.response.periodic import (INSTABILITY_MARGIN, RESONANCE_GAP, floquet, monodromy,
+                                   periodic_state, shoot)
 
 
 def one_dof_period(stiffness, force, h, steps):
@@ -49,3 +50,38 @@ def test_exact_resonance_without_damping_is_flagged_and_finite():
     # Detuned (natural frequency 1.7): not resonant.
     _, _, resonant = _periodic_1dof(lambda t: 1.7**2, np.cos)
     assert not resonant[0]
+
+
+def test_periodic_state_of_some_cases_is_theirs_alone_and_the_multipliers_are_phis():
+    # Three detuned oscillators q̈ + k q = cos t in one batch: the state solved for cases 0
+    # and 2 only is theirs when all are solved (to the bit), zero for case 1; the multipliers
+    # (eigvals) are the eigenvalues of the monodromy: the undamped average-acceleration map
+    # keeps the pair e^{±iωT} on the unit circle (the third, of the acceleration the scheme
+    # determines, is 0).
+    steps = 128
+    h = np.full(3, 2 * np.pi / steps)
+    scheme = average_acceleration()
+    k = np.array([1.7**2, 2.3**2, 0.6**2])
+    t = np.arange(steps) * h[0]
+    terms = PeriodTerms(mass=np.ones((3, steps, 1, 1)), damping=None,
+                        stiffness=np.broadcast_to(k[:, None, None, None],
+                                                  (3, steps, 1, 1)).copy(),
+                        force=np.broadcast_to(np.cos(t)[None, :, None], (3, steps, 1)).copy(),
+                        projection=np.zeros((3, steps, 1, 1)), samples=steps,
+                        interpolation_error=np.zeros(3))
+    one_period = monodromy(scheme, Marcher(scheme, terms, h, True), h, steps, 1, 3)
+    every = periodic_state(one_period, 1)
+    some = periodic_state(one_period, 1, np.array([True, False, True]))
+    for full, part in zip(every, some):
+        assert np.array_equal(part[[0, 2]], full[[0, 2]]) and not part[1].any()
+    # q(0) of the periodic response cos t / (k − 1), to the scheme's phase error
+    assert np.allclose(every[0][:, 0, 0], 1.0 / (k - 1.0), rtol=2e-3)
+    mu, resonant = floquet(one_period, 1)
+    for c in range(3):
+        assert np.allclose(np.sort_complex(mu[c]),
+                           np.sort_complex(np.linalg.eigvals(one_period.Phi[c])))
+    size = np.sort(np.abs(mu), axis=1)
+    assert np.allclose(size[:, 1:], 1.0, atol=1e-9) and np.allclose(size[:, 0], 0.0, atol=1e-12)
+    turn = np.exp(2j * np.pi * np.sqrt(k))  # e^{iωT}, T = 2π, to the phase error (ωh)²/12
+    assert np.allclose(np.abs(mu - turn[:, None]).min(axis=1), 0.0, atol=0.02)
+    assert not resonant.any()
