@@ -132,7 +132,8 @@ class Layout:
         selected = [(i, offset + c) for c, (name, i) in enumerate(self.interior_dofs)
                     if name == link]
         rows = [i for i, _ in selected]
-        varying = [i for i in range(self.link_sizes[link]) if i not in set(rows)]
+        chosen = set(rows)
+        varying = [i for i in range(self.link_sizes[link]) if i not in chosen]
         return rows, [c for _, c in selected], varying
 
 
