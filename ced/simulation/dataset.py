@@ -11,6 +11,7 @@ ced writes, so the solver only hands over arrays and the metadata stays in one p
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import subprocess
 from pathlib import Path
@@ -189,7 +190,10 @@ REFERENCES = (
     "J. Chung and G. M. Hulbert (1993), J. Appl. Mech. 60:371-375 (generalized-alpha); "
     "R. R. Craig and M. C. C. Bampton (1968), AIAA J. 6:1313-1319 (component modes)")
 
+@functools.cache
 def _git_revision() -> str:
+    """The repository revision of the code this process runs (asked once per process: two
+    git calls cost ~4 ms idle, and the convergence study makes a dataset per setting)."""
     here = Path(__file__).resolve().parent
     try:
         out = subprocess.run(
