@@ -41,7 +41,8 @@ class Monodromy(NamedTuple):
 def monodromy(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int,
               ny: int, ncase: int) -> Monodromy:
     """Propagate the 3n unit states (homogeneous) and the zero state under the forcing
-    (column 0) over one period with shared factorizations.
+    (column 0) over one period with shared factorizations: s_N = Φ s_0 + p, s the independent
+    state ((q, v, a) of the Newmark family, the history of Houbolt).
 
     Parameters
     ----------
