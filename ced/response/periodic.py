@@ -132,10 +132,8 @@ def floquet(period: Monodromy, ny: int):
 
     Parameters
     ----------
-    period : Monodromy
-        The batch's monodromy.
-    ny : int
-        Number of elastic DOFs n.
+    period, ny
+        As for :func:`periodic_state`.
 
     Returns
     -------
