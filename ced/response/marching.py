@@ -4,7 +4,8 @@
 and the factorizations of its step matrices, so that every march over them — the shooting's
 one period with 3n + 1 columns, then the response over all revolutions — factorizes each
 step matrix once. The Newmark family runs in the compiled kernel
-(:func:`ced.response.kernels.newmark_march`); Houbolt, or ``compiled=False``, runs the numpy
+(:func:`ced.response.kernels.newmark_march`), on the step matrices' sparsity where they have
+one (:mod:`ced.response.step_pattern`); Houbolt, or ``compiled=False``, runs the numpy
 loop :func:`ced.response.integrators.march`, which the kernel is tested against. The
 environment variable ``CED_KERNEL=numpy`` makes the numpy loop the default everywhere (to
 check a result against it, or where numba is unavailable for a platform).
@@ -18,6 +19,7 @@ import numpy as np
 from .integrators import Integrator, NewmarkFamily, State, forced_columns, march
 from .kernels import newmark_march
 from .period_terms import PeriodTerms
+from .step_pattern import nonzero_pattern, step_order
 
 __all__ = ["Marcher"]
 
@@ -42,13 +44,20 @@ class Marcher:
         self.scheme, self.terms, self.h = scheme, terms, np.ascontiguousarray(h, dtype=float)
         self.compiled = compiled and isinstance(scheme, NewmarkFamily)
         ncase, period, n = terms.stiffness.shape[:3]
+        self.order = None
         if self.compiled:
             self._lu = np.empty((ncase, period, n, n))
             self._piv = np.empty((ncase, period, n), np.int64)
-            self._factored = np.zeros((ncase, period), bool)
+            self._factored = np.zeros((ncase, period), np.int8)
             empty = np.empty((ncase, 0, n, n))
             self._M = terms.mass if terms.mass is not None else empty
             self._C = terms.damping if terms.damping is not None else empty
+            pattern = terms.pattern
+            if pattern is None:
+                pattern = nonzero_pattern(terms.mass, terms.damping, terms.stiffness)
+            self.order = step_order(pattern)
+        self._order_arrays = (tuple(np.asarray(x, np.int64) for x in self.order[:9])
+                              if self.order is not None else (np.empty(0, np.int64),) * 9)
         self.ok = np.ones(ncase, bool)
 
     def columns(self, r: int):
@@ -82,7 +91,7 @@ class Marcher:
         newmark_march(self._M, self._C, self.terms.stiffness, self.terms.force,
                       self.terms.damping is not None, self.h, s.alpha_m, s.alpha_f, s.beta,
                       s.gamma, n_steps, q, v, acc, a, record_every, record, self._lu,
-                      self._piv, self._factored, self.ok)
+                      self._piv, self._factored, self.ok, self._order_arrays)
         failed = ~self.ok
         if failed.any():
             singular = failed & np.isfinite(q).all(axis=(1, 2))

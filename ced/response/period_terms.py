@@ -27,6 +27,7 @@ import numba as nb
 import numpy as np
 
 from .model import Model, terms_at
+from .step_pattern import nonzero_pattern
 
 __all__ = ["PeriodTerms", "period_terms", "evaluate_terms", "interpolate_periodic",
            "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
@@ -54,7 +55,9 @@ class PeriodTerms:
     ``interpolation_error`` the estimate per case (0 when exact). ``sampled`` holds the
     terms at the samples (case, samples, …) when they were interpolated (None when exact):
     other periodic quantities derived from the terms are interpolated from them
-    (:func:`interpolate_periodic`).
+    (:func:`interpolate_periodic`). ``pattern`` (n, n) bool covers every nonzero of M, C and K
+    at every step (:func:`ced.response.step_pattern.nonzero_pattern` of what was evaluated);
+    None: not known (the marcher finds it).
     """
 
     mass: np.ndarray | None
@@ -65,6 +68,7 @@ class PeriodTerms:
     samples: int
     interpolation_error: np.ndarray
     sampled: dict | None = None
+    pattern: np.ndarray | None = None
 
     @property
     def period(self) -> int:
@@ -107,8 +111,10 @@ def interpolation_weights(points: np.ndarray, samples: int):
 
 
 @nb.njit(cache=True, nogil=True)
-def _interpolate(values, index, weight, out):
-    """out[c, m] = Σ_j weight[m, j] values[c, index[m, j]]; values (case, samples, D).
+def _interpolate(values, index, weight, entries, out):
+    """out[c, m, d] = Σ_j weight[m, j] values[c, index[m, j], d] for d in ``entries``;
+    values (case, samples, D). The other entries of ``out`` are left as they are (zeros: the
+    samples are zero there).
 
     The sum runs over j in order from 0.0 either way. For the 10-point :data:`STENCIL` it is
     written out over the ten source rows, the loop along D inside: one store per entry
@@ -121,10 +127,12 @@ def _interpolate(values, index, weight, out):
         The terms at the samples, shape (case, samples, D), C-contiguous.
     index, weight : numpy.ndarray
         The stencil (:func:`interpolation_weights`), shape (m, STENCIL): int and 1.
+    entries : numpy.ndarray
+        The entries d interpolated (int64, ascending): all D, or a matrix's nonzeros.
     out : numpy.ndarray
-        The terms at the m points, shape (case, m, D), overwritten.
+        The terms at the m points, shape (case, m, D), overwritten at ``entries``.
     """
-    ncase, D = values.shape[0], values.shape[2]
+    ncase = values.shape[0]
     if index.shape[1] == 10:
         for c in range(ncase):
             v = values[c]
@@ -134,7 +142,8 @@ def _interpolate(values, index, weight, out):
                 a5, a6, a7, a8, a9 = v[i[5]], v[i[6]], v[i[7]], v[i[8]], v[i[9]]
                 w0, w1, w2, w3, w4 = w[0], w[1], w[2], w[3], w[4]
                 w5, w6, w7, w8, w9 = w[5], w[6], w[7], w[8], w[9]
-                for d in range(D):
+                for e in range(entries.shape[0]):
+                    d = entries[e]
                     x = 0.0 + w0 * a0[d]
                     x += w1 * a1[d]
                     x += w2 * a2[d]
@@ -149,26 +158,43 @@ def _interpolate(values, index, weight, out):
         return
     for c in range(ncase):
         for m in range(index.shape[0]):
-            for d in range(D):
-                out[c, m, d] = 0.0
+            for e in range(entries.shape[0]):
+                out[c, m, entries[e]] = 0.0
             for j in range(index.shape[1]):
                 wj = weight[m, j]
                 src = index[m, j]
-                for d in range(D):
+                for e in range(entries.shape[0]):
+                    d = entries[e]
                     out[c, m, d] += wj * values[c, src, d]
 
 
 _NAMES = ("mass", "damping", "stiffness", "force", "projection")
+_MATRICES = ("mass", "damping", "stiffness")
 
 
-def _interpolate_terms(values: dict, points: np.ndarray, samples: int) -> dict:
+#: A matrix term is interpolated only at its nonzeros (the others are zero at every step)
+#: where they are fewer than this fraction of its entries.
+_SPARSE_BELOW = 0.75
+
+
+def _interpolate_terms(values: dict, points: np.ndarray, samples: int,
+                       pattern: np.ndarray | None = None) -> dict:
     """Each term at ``points`` (in sample units) from its values at the samples
-    (case, samples, …), into its own C-contiguous array."""
+    (case, samples, …), into its own C-contiguous array; M, C and K only at ``pattern``'s
+    entries (n, n) bool, if given and sparse enough, the others zero."""
     index, weight = interpolation_weights(points, samples)
+    nonzero = None
+    if pattern is not None and pattern.mean() < _SPARSE_BELOW:
+        nonzero = np.flatnonzero(pattern).astype(np.int64)
     out = {}
     for name, x in values.items():
-        flat = np.empty((x.shape[0], len(points), int(np.prod(x.shape[2:]))))
-        _interpolate(np.ascontiguousarray(x).reshape(x.shape[:2] + (-1,)), index, weight, flat)
+        size = int(np.prod(x.shape[2:]))
+        if nonzero is not None and name in _MATRICES:
+            flat, entries = np.zeros((x.shape[0], len(points), size)), nonzero
+        else:
+            flat, entries = np.empty((x.shape[0], len(points), size)), np.arange(size)
+        _interpolate(np.ascontiguousarray(x).reshape(x.shape[:2] + (-1,)), index, weight,
+                     entries, flat)
         out[name] = flat.reshape((x.shape[0], len(points)) + x.shape[2:])
     return out
 
@@ -275,9 +301,10 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
             estimate = _relative_error(approx, {k: x[:, 1::2] for k, x in values.items()})
             estimate /= _HALVING_GAIN
             if (estimate <= tolerance).all():
+                pattern = _pattern(values)
                 return PeriodTerms(**_with_none(_interpolate_terms(
-                    values, np.arange(period) * (n / period), n)), samples=n,
-                    interpolation_error=estimate, sampled=values)
+                    values, np.arange(period) * (n / period), n, pattern)), samples=n,
+                    interpolation_error=estimate, sampled=values, pattern=pattern)
             if 4 * n > period:
                 break  # as many samples as steps: evaluate every step
             middle = evaluate_terms(model, h, (np.arange(n) + 0.5) * (period / n))
@@ -292,9 +319,15 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                 y[:, ::stride], y[:, rest] = x, others[name]
                 full[name] = y
             return PeriodTerms(**_with_none(full), samples=period,
-                               interpolation_error=np.zeros(ncase))
+                               interpolation_error=np.zeros(ncase), pattern=_pattern(full))
     values = evaluate_terms(model, h, np.arange(period, dtype=float))
-    return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase))
+    return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase),
+                       pattern=_pattern(values))
+
+
+def _pattern(values: dict) -> np.ndarray:
+    """Nonzeros of M, C, K wherever ``values`` holds them (and, interpolated, at every step)."""
+    return nonzero_pattern(*(values.get(name) for name in _MATRICES))
 
 
 def interpolate_periodic(values: np.ndarray, period: int,

@@ -123,9 +123,31 @@ def test_written_out_ten_point_sum_equals_the_generic_loop():
     values = rng.standard_normal((3, samples, 23))
     index, weight = interpolation_weights(points, samples)
     written, generic = np.empty((3, 40, 23)), np.empty((3, 40, 23))
-    _interpolate(values, index, weight, written)
+    every = np.arange(23)
+    _interpolate(values, index, weight, every, written)
     _interpolate(values, np.concatenate([index, index[:, :1]], axis=1),
-                 np.concatenate([weight, np.zeros((40, 1))], axis=1), generic)
+                 np.concatenate([weight, np.zeros((40, 1))], axis=1), every, generic)
     assert np.array_equal(written, generic)
     want = np.einsum("mj,cmjd->cmd", weight, values[:, index])
     assert np.allclose(written, want, rtol=1e-13, atol=1e-13)
+    # Some entries only: those get the same bits, the others are not touched.
+    some = np.array([0, 5, 6, 22])
+    part = np.full((3, 40, 23), 7.0)
+    _interpolate(values, index, weight, some, part)
+    assert np.array_equal(part[..., some], written[..., some])
+    assert (np.delete(part, some, axis=2) == 7.0).all()
+
+
+def test_sparse_terms_are_interpolated_at_their_nonzeros_only_with_the_same_bits():
+    """M, C, K interpolated at the pattern's entries equal the full interpolation (the others
+    are zero in every sample, and so in the interpolation)."""
+    from ced.response.period_terms import _interpolate_terms
+    rng = np.random.default_rng(8)
+    pattern = np.eye(6, dtype=bool) | np.eye(6, k=1, dtype=bool) | np.eye(6, k=-1, dtype=bool)
+    values = {"stiffness": rng.standard_normal((2, 16, 6, 6)) * pattern,
+              "force": rng.standard_normal((2, 16, 6))}
+    points = np.arange(64) * 0.25
+    full = _interpolate_terms(values, points, 16)
+    sparse = _interpolate_terms(values, points, 16, pattern)
+    for name in values:
+        assert np.array_equal(full[name], sparse[name])

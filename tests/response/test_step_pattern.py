@@ -1,0 +1,147 @@
+"""The step matrices' common sparsity (ced.response.step_pattern) and the march that uses it."""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ced.response.integrators import generalized_alpha, newmark, start
+from ced.response.marching import Marcher
+from ced.response.period_terms import PeriodTerms
+from ced.response.step_pattern import (MAX_FILL, nonzero_pattern, pattern_factor, pattern_solve,
+                                       step_order)
+
+
+def _linkage_pattern(links: int, dofs: int, joints: int) -> np.ndarray:
+    """A linkage's pattern: each link's DOFs banded (element neighbours), every link coupled
+    with the joint coordinates; the joint coordinates first, as in ced's layout."""
+    n = joints + links * dofs
+    pattern = np.zeros((n, n), bool)
+    pattern[:joints, :] = pattern[:, :joints] = True
+    for link in range(links):
+        s = joints + link * dofs
+        i = np.arange(dofs)
+        pattern[s:s + dofs, s:s + dofs] = np.abs(i[:, None] - i[None, :]) <= 3
+    return pattern
+
+
+def _spd(rng, pattern: np.ndarray, shape=()) -> np.ndarray:
+    """Random symmetric, diagonally dominant (so positive definite) matrices on ``pattern``."""
+    n = pattern.shape[0]
+    A = rng.standard_normal(shape + (n, n)) * pattern
+    A = A + np.swapaxes(A, -1, -2)
+    return A + (np.abs(A).sum(axis=-1, keepdims=True) + 1.0) * np.eye(n)
+
+
+def _factor(order, S):
+    LU = S[np.ix_(order.perm, order.perm)].copy()
+    ok = pattern_factor(LU, np.diag(LU).copy(), order.upper_ptr, order.upper_idx,
+                        order.column_ptr, order.column_idx)
+    return ok, LU
+
+
+@pytest.mark.parametrize("columns", [1, 5])
+def test_ordered_lu_without_pivoting_solves_a_linkage_system(columns):
+    rng = np.random.default_rng(1)
+    pattern = _linkage_pattern(links=3, dofs=11, joints=3)
+    order = step_order(pattern)
+    assert order is not None and order.fill < MAX_FILL
+    assert sorted(order.perm) == list(range(len(pattern)))
+    S = _spd(rng, pattern)
+    S[0, 5] += 0.3  # slightly nonsymmetric, as the step matrices are
+    ok, LU = _factor(order, S)
+    assert ok
+    B = rng.standard_normal((len(S), columns))
+    X = B.copy()
+    pattern_solve(LU, order.perm, order.lower_ptr, order.lower_idx, order.upper_ptr,
+                  order.upper_idx, X, np.empty_like(X))
+    assert np.allclose(X, np.linalg.solve(S, B), rtol=1e-12, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(links=st.integers(1, 4), dofs=st.integers(2, 12), joints=st.integers(1, 4),
+       seed=st.integers(0, 10_000))
+def test_the_symbolic_factors_hold_every_nonzero_of_the_numeric_ones(links, dofs, joints, seed):
+    """Elimination without pivoting never creates a nonzero outside the symbolic pattern: the
+    factorization, run densely, equals the one run on the pattern."""
+    rng = np.random.default_rng(seed)
+    pattern = _linkage_pattern(links, dofs, joints)
+    order = step_order(pattern, max_fill=1.0)
+    S = _spd(rng, pattern)[np.ix_(order.perm, order.perm)]
+    dense = S.copy()
+    for k in range(len(S)):  # plain dense elimination, no pivoting
+        dense[k + 1:, k] /= dense[k, k]
+        dense[k + 1:, k + 1:] -= np.outer(dense[k + 1:, k], dense[k, k + 1:])
+    symbolic = np.zeros_like(S, dtype=bool)
+    for ptr, idx in ((order.lower_ptr, order.lower_idx), (order.upper_ptr, order.upper_idx)):
+        for i in range(len(S)):
+            symbolic[i, idx[ptr[i]:ptr[i + 1]]] = True
+    symbolic |= np.eye(len(S), dtype=bool)
+    assert not (dense[~symbolic] != 0).any()
+    ok, LU = _factor(order, S[np.ix_(np.argsort(order.perm), np.argsort(order.perm))])
+    assert ok
+    assert np.allclose(LU[symbolic], dense[symbolic], rtol=1e-10, atol=1e-12)
+
+
+def test_an_indefinite_matrix_is_refused_and_a_dense_pattern_gets_no_order():
+    rng = np.random.default_rng(2)
+    pattern = _linkage_pattern(links=2, dofs=8, joints=2)
+    order = step_order(pattern, max_fill=1.0)
+    S = -_spd(rng, pattern)  # negative definite: its first pivot is negative
+    ok, _ = _factor(order, S)
+    assert not ok
+    assert step_order(np.ones((10, 10), bool)) is None
+
+
+def test_nonzero_pattern_is_the_symmetric_union_with_the_diagonal():
+    M = np.zeros((2, 3, 4, 4))
+    K = np.zeros((2, 3, 4, 4))
+    M[1, 2, 0, 3] = 1.0
+    K[0, 0, 2, 1] = -2.0
+    pattern = nonzero_pattern(M, None, K)
+    want = np.eye(4, dtype=bool)
+    want[0, 3] = want[3, 0] = want[2, 1] = want[1, 2] = True
+    assert np.array_equal(pattern, want)
+
+
+def _sparse_system(rng, ncase, period, damped, indefinite_steps=()):
+    pattern = _linkage_pattern(links=3, dofs=7, joints=2)
+    n = len(pattern)
+    M = _spd(rng, pattern, (ncase, period))
+    K = 1e4 * _spd(rng, pattern, (ncase, period))
+    for j in indefinite_steps:  # a softening stiffness that makes the step matrix indefinite
+        K[:, j] *= -1e5
+    C = 0.1 * rng.standard_normal((ncase, period, n, n)) * pattern if damped else None
+    F = rng.standard_normal((ncase, period, n))
+    return PeriodTerms(mass=M, damping=C, stiffness=K, force=F,
+                       projection=np.zeros((ncase, period, 1, 1)), samples=period,
+                       interpolation_error=np.zeros(ncase))
+
+
+@pytest.mark.parametrize("scheme", [newmark(), generalized_alpha(0.7)])
+@pytest.mark.parametrize("damped", [False, True])
+@pytest.mark.parametrize("columns", [1, 4])
+@pytest.mark.parametrize("indefinite", [(), (2, 5)])
+def test_sparse_compiled_march_equals_numpy_march(scheme, damped, columns, indefinite):
+    """On a linkage-like pattern the compiled march orders and factorizes without pivoting;
+    steps whose matrix is indefinite fall back to the dense pivoted LU; both agree with the
+    numpy loop (np.linalg.solve) to round-off."""
+    rng = np.random.default_rng(5)
+    ncase, period, n_steps = 3, 7, 23
+    terms = _sparse_system(rng, ncase, period, damped, indefinite)
+    h = np.array([1e-3, 2e-3, 5e-4])
+    n = terms.stiffness.shape[-1]
+    q0 = rng.standard_normal((ncase, n, columns))
+    v0 = rng.standard_normal((ncase, n, columns))
+    compiled, reference = Marcher(scheme, terms, h), Marcher(scheme, terms, h, compiled=False)
+    assert compiled.order is not None
+    first = start(compiled.columns(columns), q0, v0)
+    end_c, rec_c = compiled.march(first, n_steps, record_every=2)
+    end_n, rec_n = reference.march(first, n_steps, record_every=2)
+    kinds = set(np.unique(compiled._factored))
+    assert kinds == ({1, 2} if indefinite else {1})
+    assert np.abs(rec_c - rec_n).max() <= 1e-11 * np.abs(rec_n).max()
+    for x, y in zip(end_c[:4], end_n[:4]):
+        assert np.allclose(x, y, rtol=1e-10, atol=1e-11 * np.abs(y).max())
+    again_c, _ = compiled.march(end_c, n_steps)  # the factorizations reused
+    again_n, _ = reference.march(end_n, n_steps)
+    assert np.allclose(again_c.q, again_n.q, rtol=1e-9, atol=1e-11 * np.abs(again_n.q).max())
