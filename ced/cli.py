@@ -222,7 +222,7 @@ def _parser() -> argparse.ArgumentParser:
     lad.add_argument("--link", default="coupler", help="link whose results are compared")
     lad.set_defaults(func=_ladder)
     cmp = _sub(sub, "compile", "compile the numerical kernels into numba's on-disk cache",
-               "Compile every numerical kernel now (one small scene solved), so that the "
+               "Compile every numerical kernel now (two small scenes solved), so that the "
                "first processes of a study load them instead of compiling them.")
     cmp.set_defaults(func=_compile)
     return parser

@@ -11,14 +11,15 @@ at install.
 Every kernel is called with one type signature whatever the scene (checked by
 ``tests/test_compile.py`` on the default study's scene, a start transient, the other
 integrators, formulations and mechanisms): one small periodic scene solved by the spectral
-solver with its error estimate reaches all of them.
+solver with its error estimate reaches all of them but the march on dense step matrices,
+which the same scene with one flexible link reaches.
 """
 from __future__ import annotations
 
 import importlib
 import pkgutil
 
-__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE"]
+__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_DENSE"]
 
 #: Solved by :func:`compile_kernels`: the default study's base scene (spectral periodic state,
 #: Craig–Bampton links, Floquet analysis by shooting, forced-resonance check, modal analysis,
@@ -37,6 +38,10 @@ WARM_UP_SCENE = {
     "modal": {"modes": 1, "angles": 2},
     "outputs": {"stations": 3},
 }
+#: The same with one flexible link: its step matrices are dense (the marching kernel for dense
+#: matrices; two flexible links have sparse ones, :mod:`ced.response.step_pattern`).
+WARM_UP_DENSE = {**WARM_UP_SCENE, "links": {"crank": {"flexible": False},
+                                             "rocker": {"flexible": False}}}
 
 
 def kernels() -> dict[str, object]:
@@ -76,4 +81,5 @@ def compile_kernels() -> dict[str, int]:
     from .simulation.simulate import simulate
 
     simulate(WARM_UP_SCENE)
+    simulate(WARM_UP_DENSE)
     return {name: len(kernel.signatures) for name, kernel in kernels().items()}

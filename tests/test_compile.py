@@ -57,6 +57,7 @@ def test_the_warm_up_scene_compiles_every_kernel_other_scenes_call():
     # from other kernels hold one if compiled here, none if their callers came from the cache.
     assert {name for name, s in warm.items() if s} >= {
         "ced.response.spectral._solve_batch", "ced.response.kernels.newmark_march",
+        "ced.response.kernels.newmark_march_packed",
         "ced.response.period_terms._interpolate", "ced.fem.recovery_kernel._recover"}
     assert all(len(s) <= 1 for s in warm.values())
     # No other scene needs a signature the warm-up did not compile.

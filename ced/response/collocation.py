@@ -211,7 +211,7 @@ def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.
     (checked to its tolerance), or, where that check fails, evaluated at the points.
     """
     source = period.sampled if period.sampled is not None else {
-        name: getattr(period, name) for name in _TERMS}
+        name: period.dense(name) for name in _TERMS}
     out: dict[str, np.ndarray | None] = {}
     for name in _TERMS:
         values = source.get(name)

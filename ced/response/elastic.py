@@ -270,7 +270,7 @@ def _static(period: PeriodTerms) -> np.ndarray:
                                                period.sampled["force"]), period.period)
         if y is not None:
             return y
-    return _solve_static(period.stiffness, period.force)
+    return _solve_static(period.dense("stiffness"), period.force)
 
 
 def _solve_static(K: np.ndarray, F: np.ndarray) -> np.ndarray:

@@ -11,6 +11,8 @@ its LU reused in every later period (the second revolution costs only the solves
 
 The arithmetic is that of the numpy path; :func:`ced.response.integrators.march` stays the
 reference it is tested against (``tests/response/test_kernels.py``: equal to round-off).
+:func:`newmark_march_packed` is the same scheme on sparse step matrices held packed, in a
+fill-reducing order, factorized without pivoting (:mod:`ced.response.step_pattern`).
 
 Every function takes and fills plain arrays; none allocates per step.
 """
@@ -21,10 +23,10 @@ import numpy as np
 
 # The LU of one small system lives with the rigid layer's batched solver (below this layer).
 from ..rigid.small_systems import lu_factor, lu_solve
-from .step_pattern import pattern_factor, pattern_solve
+from .step_pattern import packed_factor, packed_solve
 
-__all__ = ["lu_factor", "lu_solve", "lu_solve_columns", "newmark_march", "static_period",
-           "expand"]
+__all__ = ["lu_factor", "lu_solve", "lu_solve_columns", "newmark_march", "newmark_march_packed",
+           "static_period", "expand"]
 
 _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 
@@ -67,8 +69,38 @@ def lu_solve_columns(LU: np.ndarray, piv: np.ndarray, X: np.ndarray) -> None:
 
 
 @nb.njit(**_JIT)
+def _predict(q, v, acc, a, h, alpha_m, alpha_f, beta, gamma, qh, vh, ak):
+    """The step's predictors q̂, v̂ and the α-weighted acceleration a_k from the state (n, r)
+    (Arnold & Brüls 2007, :func:`ced.response.integrators.alpha_step`)."""
+    n, r = q.shape
+    for i in range(n):
+        for s in range(r):
+            ak[i, s] = (alpha_f * acc[i, s] - alpha_m * a[i, s]) / (1.0 - alpha_m)
+            qh[i, s] = q[i, s] + h * v[i, s] + h * h * ((0.5 - beta) * a[i, s] + beta * ak[i, s])
+            vh[i, s] = v[i, s] + h * ((1.0 - gamma) * a[i, s] + gamma * ak[i, s])
+
+
+@nb.njit(**_JIT)
+def _correct(x, qh, vh, ak, cC, cK, w, q, v, acc, a) -> bool:
+    """The new state from the step's solution x (the acceleration) and the predictors, in
+    place; False where column 0 of q is no longer finite."""
+    n, r = q.shape
+    finite = True
+    for i in range(n):
+        for s in range(r):
+            y = x[i, s]
+            acc[i, s] = y
+            q[i, s] = qh[i, s] + cK * y
+            v[i, s] = vh[i, s] + cC * y
+            a[i, s] = ak[i, s] + w * y
+        if not np.isfinite(q[i, 0]):
+            finite = False
+    return finite
+
+
+@nb.njit(**_JIT)
 def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_steps,
-                  q, v, acc, a, record_every, record, LU, piv, factored, ok, order):
+                  q, v, acc, a, record_every, record, LU, piv, factored, ok):
     """March the Newmark family from step 0 to ``n_steps``, every case, in place.
 
     Parameters
@@ -92,32 +124,20 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
         Column 0 of q is written to ``record[:, k // record_every]`` at every step k that
         ``record_every`` divides (0 records nothing).
     record : (case, n_record, n)
-    LU, piv, factored : (case, P, n, n), (case, P, n) int64, (case, P) int8
-        Factorizations of the step matrices, kept across calls: a second march over the same
-        terms reuses them. ``factored`` says which are done and how: 0 not yet, 1 in
-        ``order`` without pivoting, 2 dense with partial pivoting.
+    LU, piv, factored : (case, P, n, n), (case, P, n) int64, (case, P) bool
+        Factorizations of the step matrices, kept across calls (``factored`` says which are
+        done): a second march over the same terms reuses them.
     ok : (case,) bool
         Set False for a case whose step matrix is singular or whose state stops being finite
         (its march stops there).
-    order : tuple of nine int64 arrays
-        :class:`ced.response.step_pattern.StepOrder`'s index arrays (perm, then the CSR
-        pairs of L's rows, U's rows, L's columns and the terms' rows), or nine empty arrays:
-        the dense path. With an order, the products K q̂, C v̂ run over the terms' nonzeros
-        and each step matrix is factorized in the order without pivoting, densely with
-        pivoting where that fails (:func:`ced.response.step_pattern.pattern_factor`).
     """
     ncase, P, n = K.shape[0], K.shape[1], K.shape[2]
     r = q.shape[2]
-    perm, lower_ptr, lower_idx, upper_ptr, upper_idx = order[0], order[1], order[2], order[3], order[4]
-    column_ptr, column_idx, rows_ptr, rows_idx = order[5], order[6], order[7], order[8]
-    sparse = perm.shape[0] == n
     # Work arrays (n, r): with many columns (shooting) every inner loop runs along them.
     rhs = np.empty((n, r))
     qh = np.empty((n, r))
     vh = np.empty((n, r))
     ak = np.empty((n, r))
-    work = np.empty((n, r))
-    diagonal = np.empty(n)
     w = (1.0 - alpha_f) / (1.0 - alpha_m)
     for c in range(ncase):
         hc = h[c]
@@ -132,34 +152,9 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
             j = (k + 1) % P
             Kj = K[c, j]
             qc, vc, accc, ac = q[c], v[c], acc[c], a[c]
-            for i in range(n):
-                for s in range(r):
-                    ak[i, s] = (alpha_f * accc[i, s] - alpha_m * ac[i, s]) / (1.0 - alpha_m)
-                    qh[i, s] = qc[i, s] + hc * vc[i, s] + hc * hc * (
-                        (0.5 - beta) * ac[i, s] + beta * ak[i, s])
-                    vh[i, s] = vc[i, s] + hc * ((1.0 - gamma) * ac[i, s] + gamma * ak[i, s])
+            _predict(qc, vc, accc, ac, hc, alpha_m, alpha_f, beta, gamma, qh, vh, ak)
             # rhs = F − K q̂ − C v̂
-            # One column: the dense row products, which stream the step's matrices from
-            # memory; the nonzeros alone, read scattered, were slower (7.6 against 4.4 µs per
-            # step for the 36 DOFs of benchmarks/six_bar_cost.py). Many columns: the nonzeros.
-            if sparse and r > 1:
-                Cj = C[c, j] if has_damping else Kj
-                for i in range(n):
-                    for s in range(r):
-                        rhs[i, s] = 0.0
-                    rhs[i, 0] = F[c, j, i]
-                    for b in range(rows_ptr[i], rows_ptr[i + 1]):
-                        m = rows_idx[b]
-                        f = Kj[i, m]
-                        for s in range(r):
-                            rhs[i, s] -= f * qh[m, s]
-                    if has_damping:
-                        for b in range(rows_ptr[i], rows_ptr[i + 1]):
-                            m = rows_idx[b]
-                            f = Cj[i, m]
-                            for s in range(r):
-                                rhs[i, s] -= f * vh[m, s]
-            elif r == 1:
+            if r == 1:
                 for i in range(n):
                     x = F[c, j, i]
                     for m in range(n):
@@ -189,14 +184,7 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
                             for s in range(r):
                                 rhs[i, s] -= f * vh[m, s]
             LUj = LU[c, j]
-            if factored[c, j] == 0 and sparse:
-                _gather_ordered(M[c, j], C[c, j] if has_damping else Kj, Kj, has_damping, cC,
-                                cK, perm, lower_ptr, lower_idx, upper_ptr, upper_idx, LUj,
-                                diagonal)
-                if pattern_factor(LUj, diagonal, upper_ptr, upper_idx, column_ptr,
-                                  column_idx):
-                    factored[c, j] = 1
-            if factored[c, j] == 0:
+            if not factored[c, j]:
                 Mj = M[c, j]
                 for i in range(n):
                     for m in range(n):
@@ -209,24 +197,12 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
                 if not lu_factor(LUj, piv[c, j]):
                     ok[c] = False
                     break
-                factored[c, j] = 2
-            if factored[c, j] == 1:
-                pattern_solve(LUj, perm, lower_ptr, lower_idx, upper_ptr, upper_idx, rhs, work)
-            elif r == 1:
+                factored[c, j] = True
+            if r == 1:
                 lu_solve(LUj, piv[c, j], rhs[:, 0])
             else:
                 lu_solve_columns(LUj, piv[c, j], rhs)
-            finite = True
-            for i in range(n):
-                for s in range(r):
-                    x = rhs[i, s]
-                    accc[i, s] = x
-                    qc[i, s] = qh[i, s] + cK * x
-                    vc[i, s] = vh[i, s] + cC * x
-                    ac[i, s] = ak[i, s] + w * x
-                if not np.isfinite(qc[i, 0]):
-                    finite = False
-            if not finite:
+            if not _correct(rhs, qh, vh, ak, cC, cK, w, qc, vc, accc, ac):
                 ok[c] = False
             if record_every > 0 and (k + 1) % record_every == 0:
                 for i in range(n):
@@ -234,34 +210,98 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
 
 
 @nb.njit(**_JIT)
-def _gather_ordered(Mj, Cj, Kj, has_damping, cC, cK, perm, lower_ptr, lower_idx, upper_ptr,
-                    upper_idx, LU, diagonal):
-    """The step matrix S = M + c_C C + c_K K in ``perm``'s order, on the factors' pattern
-    only (row i: L's columns, the diagonal, U's columns), into LU; its diagonal into
-    ``diagonal``."""
-    n = perm.shape[0]
-    for i in range(n):
-        src = perm[i]
-        for part in range(3):
-            if part == 0:
-                lo, hi = lower_ptr[i], lower_ptr[i + 1]
-            elif part == 1:
-                lo, hi = 0, 1
+def newmark_march_packed(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_steps,
+                         q, v, acc, a, record_every, record, LU, factored, ok, refused, perm,
+                         rows_ptr, rows_idx, lu_ptr, lu_idx, diagonal, lu_source):
+    """:func:`newmark_march` on packed terms (:func:`ced.response.step_pattern.pack`).
+
+    Parameters
+    ----------
+    M, C, K : (case, P, nnz)
+        Mass, damping and stiffness over one period, packed on the pattern ``rows_ptr``,
+        ``rows_idx`` (row by row, original order). C is ignored unless ``has_damping``.
+    F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_steps, q, v, acc, a, record_every, record
+        As for :func:`newmark_march`.
+    LU, factored : (case, P, nnz_lu), (case, P) bool
+        The step matrices' packed factors in the order ``perm``, kept across calls.
+    ok : (case,) bool
+        As for :func:`newmark_march`.
+    refused : (case,) bool
+        Set True (and ``ok`` False) for a case with a step matrix the LU without pivoting
+        refuses (:func:`ced.response.step_pattern.packed_factor`): to be marched densely.
+    perm, rows_ptr, rows_idx, lu_ptr, lu_idx, diagonal, lu_source : int64 arrays
+        :class:`ced.response.step_pattern.StepOrder`.
+    """
+    ncase, P = K.shape[0], K.shape[1]
+    n, r = q.shape[1], q.shape[2]
+    rhs = np.empty((n, r))
+    qh = np.empty((n, r))
+    vh = np.empty((n, r))
+    ak = np.empty((n, r))
+    work = np.empty((n, r))
+    row = np.empty(n)
+    w = (1.0 - alpha_f) / (1.0 - alpha_m)
+    for c in range(ncase):
+        hc = h[c]
+        cC = w * gamma * hc
+        cK = w * beta * hc * hc
+        if record_every > 0:
+            for i in range(n):
+                record[c, 0, i] = q[c, i, 0]
+        for k in range(n_steps):
+            if not ok[c]:
+                break
+            j = (k + 1) % P
+            Kj, Cj = K[c, j], C[c, j] if has_damping else K[c, j]
+            qc, vc, accc, ac = q[c], v[c], acc[c], a[c]
+            _predict(qc, vc, accc, ac, hc, alpha_m, alpha_f, beta, gamma, qh, vh, ak)
+            # rhs = F − K q̂ − C v̂ over the nonzeros, read in the order they are stored
+            if r == 1:
+                for i in range(n):
+                    x = F[c, j, i]
+                    for b in range(rows_ptr[i], rows_ptr[i + 1]):
+                        x -= Kj[b] * qh[rows_idx[b], 0]
+                    if has_damping:
+                        for b in range(rows_ptr[i], rows_ptr[i + 1]):
+                            x -= Cj[b] * vh[rows_idx[b], 0]
+                    rhs[i, 0] = x
             else:
-                lo, hi = upper_ptr[i], upper_ptr[i + 1]
-            for b in range(lo, hi):
-                if part == 0:
-                    k = lower_idx[b]
-                elif part == 1:
-                    k = i
-                else:
-                    k = upper_idx[b]
-                col = perm[k]
-                x = Mj[src, col] + cK * Kj[src, col]
-                if has_damping:
-                    x += cC * Cj[src, col]
-                LU[i, k] = x
-        diagonal[i] = LU[i, i]
+                for i in range(n):
+                    for s in range(r):
+                        rhs[i, s] = 0.0
+                    rhs[i, 0] = F[c, j, i]
+                    for b in range(rows_ptr[i], rows_ptr[i + 1]):
+                        m, f = rows_idx[b], Kj[b]
+                        for s in range(r):
+                            rhs[i, s] -= f * qh[m, s]
+                    if has_damping:
+                        for b in range(rows_ptr[i], rows_ptr[i + 1]):
+                            m, f = rows_idx[b], Cj[b]
+                            for s in range(r):
+                                rhs[i, s] -= f * vh[m, s]
+            LUj = LU[c, j]
+            if not factored[c, j]:
+                Mj = M[c, j]
+                for b in range(LUj.shape[0]):
+                    src = lu_source[b]
+                    if src < 0:
+                        LUj[b] = 0.0
+                    else:
+                        x = Mj[src] + cK * Kj[src]
+                        if has_damping:
+                            x += cC * Cj[src]
+                        LUj[b] = x
+                if not packed_factor(LUj, lu_ptr, lu_idx, diagonal, row):
+                    ok[c] = False
+                    refused[c] = True
+                    break
+                factored[c, j] = True
+            packed_solve(LUj, perm, lu_ptr, lu_idx, diagonal, rhs, work)
+            if not _correct(rhs, qh, vh, ak, cC, cK, w, qc, vc, accc, ac):
+                ok[c] = False
+            if record_every > 0 and (k + 1) % record_every == 0:
+                for i in range(n):
+                    record[c, (k + 1) // record_every, i] = qc[i, 0]
 
 
 @nb.njit(**_JIT)

@@ -4,8 +4,8 @@
 and the factorizations of its step matrices, so that every march over them — the shooting's
 one period with 3n + 1 columns, then the response over all revolutions — factorizes each
 step matrix once. The Newmark family runs in the compiled kernel
-(:func:`ced.response.kernels.newmark_march`), on the step matrices' sparsity where they have
-one (:mod:`ced.response.step_pattern`); Houbolt, or ``compiled=False``, runs the numpy
+(:func:`ced.response.kernels.newmark_march`, or :func:`ced.response.kernels.newmark_march_packed`
+where the terms are held packed on their sparsity, :mod:`ced.response.step_pattern`); Houbolt, or ``compiled=False``, runs the numpy
 loop :func:`ced.response.integrators.march`, which the kernel is tested against. The
 environment variable ``CED_KERNEL=numpy`` makes the numpy loop the default everywhere (to
 check a result against it, or where numba is unavailable for a platform).
@@ -17,9 +17,8 @@ import os
 import numpy as np
 
 from .integrators import Integrator, NewmarkFamily, State, forced_columns, march
-from .kernels import newmark_march
-from .period_terms import PeriodTerms
-from .step_pattern import nonzero_pattern, step_order
+from .kernels import newmark_march, newmark_march_packed
+from .period_terms import PeriodTerms, with_sparsity
 
 __all__ = ["Marcher"]
 
@@ -41,24 +40,33 @@ class Marcher:
                  compiled: bool | None = None):
         if compiled is None:
             compiled = os.environ.get("CED_KERNEL", "numba") != "numpy"
-        self.scheme, self.terms, self.h = scheme, terms, np.ascontiguousarray(h, dtype=float)
         self.compiled = compiled and isinstance(scheme, NewmarkFamily)
-        ncase, period, n = terms.stiffness.shape[:3]
-        self.order = None
+        if self.compiled and terms.pattern is None:  # terms made by hand: find their sparsity
+            terms = with_sparsity(terms)
+        self.scheme, self.terms, self.h = scheme, terms, np.ascontiguousarray(h, dtype=float)
+        self.ok = np.ones(terms.force.shape[0], bool)
         if self.compiled:
-            self._lu = np.empty((ncase, period, n, n))
-            self._piv = np.empty((ncase, period, n), np.int64)
-            self._factored = np.zeros((ncase, period), np.int8)
-            empty = np.empty((ncase, 0, n, n))
-            self._M = terms.mass if terms.mass is not None else empty
-            self._C = terms.damping if terms.damping is not None else empty
-            pattern = terms.pattern
-            if pattern is None:
-                pattern = nonzero_pattern(terms.mass, terms.damping, terms.stiffness)
-            self.order = step_order(pattern)
-        self._order_arrays = (tuple(np.asarray(x, np.int64) for x in self.order[:9])
-                              if self.order is not None else (np.empty(0, np.int64),) * 9)
-        self.ok = np.ones(ncase, bool)
+            self._allocate(packed=terms.order is not None)
+
+    @property
+    def packed(self) -> bool:
+        """The compiled march runs on the packed terms (sparse step matrices)."""
+        return self.compiled and self._packed
+
+    def _allocate(self, packed: bool) -> None:
+        """Factor storage for the packed or the dense kernel (all steps to be factorized)."""
+        terms, n = self.terms, self.terms.n
+        ncase, period = terms.force.shape[:2]
+        self._packed = packed
+        self._factored = np.zeros((ncase, period), bool)
+        if packed:
+            self._lu = np.empty((ncase, period, len(terms.order.lu_idx)))
+            self._matrices = tuple(getattr(terms, name) for name in ("mass", "damping",
+                                                                       "stiffness"))
+            return
+        self._lu = np.empty((ncase, period, n, n))
+        self._piv = np.empty((ncase, period, n), np.int64)
+        self._matrices = tuple(terms.dense(name) for name in ("mass", "damping", "stiffness"))
 
     def columns(self, r: int):
         """The terms with F in column 0 of r columns (``terms`` of the numpy loop)."""
@@ -88,10 +96,30 @@ class Marcher:
             raise ValueError("the compiled march needs the mass (effect elastic_inertia)")
         q, v, acc, a = (np.array(x, dtype=float, order="C", copy=True)
                         for x in (state.q, state.v, state.acc, state.a))
-        newmark_march(self._M, self._C, self.terms.stiffness, self.terms.force,
-                      self.terms.damping is not None, self.h, s.alpha_m, s.alpha_f, s.beta,
-                      s.gamma, n_steps, q, v, acc, a, record_every, record, self._lu,
-                      self._piv, self._factored, self.ok, self._order_arrays)
+        M, C, K = self._matrices
+        damped = C is not None
+        ok = self.ok.copy()
+        if self._packed:
+            refused = np.zeros_like(ok)
+            o = self.terms.order
+            absent = np.empty((K.shape[0], 0, K.shape[2]))
+            newmark_march_packed(M, C if damped else absent, K, self.terms.force, damped,
+                                 self.h, s.alpha_m, s.alpha_f, s.beta, s.gamma, n_steps, q, v,
+                                 acc, a, record_every, record, self._lu, self._factored, ok,
+                                 refused, o.perm, o.rows_ptr, o.rows_idx, o.lu_ptr, o.lu_idx,
+                                 o.diagonal, o.lu_source)
+            if refused.any():
+                # A step matrix far from positive definite (an indefinite stiffness): the
+                # whole batch is marched again, densely with partial pivoting.
+                self._allocate(packed=False)
+                return self.march(state, n_steps, record_every)
+        else:
+            empty = np.empty((K.shape[0], 0) + K.shape[2:])
+            newmark_march(empty if M is None else M, C if damped else empty, K,
+                          self.terms.force, damped, self.h, s.alpha_m, s.alpha_f, s.beta,
+                          s.gamma, n_steps, q, v, acc, a, record_every, record, self._lu,
+                          self._piv, self._factored, ok)
+        self.ok = ok
         failed = ~self.ok
         if failed.any():
             singular = failed & np.isfinite(q).all(axis=(1, 2))

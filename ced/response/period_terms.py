@@ -21,16 +21,17 @@ point, flagged ``near_singular`` — are evaluated exactly at every step (the ca
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
 
 from .model import Model, terms_at
-from .step_pattern import nonzero_pattern
+from .step_pattern import StepOrder, nonzero_pattern, pack, step_order, unpack
 
-__all__ = ["PeriodTerms", "period_terms", "evaluate_terms", "interpolate_periodic",
-           "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
+__all__ = ["PeriodTerms", "period_terms", "with_sparsity", "evaluate_terms",
+           "interpolate_periodic", "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
 
 #: Samples per period to start from (doubled until the interpolation error is small enough).
 SAMPLES = 64
@@ -56,8 +57,11 @@ class PeriodTerms:
     terms at the samples (case, samples, …) when they were interpolated (None when exact):
     other periodic quantities derived from the terms are interpolated from them
     (:func:`interpolate_periodic`). ``pattern`` (n, n) bool covers every nonzero of M, C and K
-    at every step (:func:`ced.response.step_pattern.nonzero_pattern` of what was evaluated);
-    None: not known (the marcher finds it).
+    at every step (:func:`ced.response.step_pattern.nonzero_pattern` of what was evaluated;
+    None: not known). Where the step matrices are sparse, ``order`` is their
+    :class:`ced.response.step_pattern.StepOrder` and ``mass``, ``damping``, ``stiffness`` are
+    held **packed**, (case, P, nnz) (:func:`ced.response.step_pattern.pack`); :meth:`dense`
+    gives them as matrices either way.
     """
 
     mass: np.ndarray | None
@@ -69,19 +73,40 @@ class PeriodTerms:
     interpolation_error: np.ndarray
     sampled: dict | None = None
     pattern: np.ndarray | None = None
+    order: StepOrder | None = None
 
     @property
     def period(self) -> int:
         return self.stiffness.shape[1]
+
+    @property
+    def n(self) -> int:
+        """Order of the step matrices (elastic DOFs)."""
+        return self.force.shape[-1]
+
+    def dense(self, name: str, steps=slice(None)) -> np.ndarray | None:
+        """Term ``name`` at ``steps`` (an index or slice of the period's steps), matrices as
+        (case, step, n, n) whether held packed or not; None where absent.
+
+        Parameters
+        ----------
+        name : str
+            ``mass``, ``damping``, ``stiffness``, ``force`` or ``projection``.
+        steps : slice or numpy.ndarray, optional
+            Steps of the period (default: all).
+        """
+        x = getattr(self, name)
+        if x is None or self.order is None or name not in _MATRICES:
+            return None if x is None else x[:, steps]
+        return unpack(x[:, steps], self.order, self.n)
 
     def __call__(self, k: int):
         """(M, C, K, F) at step k (F (case, n)), the ``terms`` of
         :func:`ced.response.integrators.march` through
         :func:`ced.response.integrators.forced_columns`."""
         j = k % self.period
-        M = None if self.mass is None else self.mass[:, j]
-        C = None if self.damping is None else self.damping[:, j]
-        return M, C, self.stiffness[:, j], self.force[:, j]
+        M, C, K = (self.dense(name, j) for name in _MATRICES)
+        return M, C, K, self.force[:, j]
 
 
 def interpolation_weights(points: np.ndarray, samples: int):
@@ -111,10 +136,8 @@ def interpolation_weights(points: np.ndarray, samples: int):
 
 
 @nb.njit(cache=True, nogil=True)
-def _interpolate(values, index, weight, entries, out):
-    """out[c, m, d] = Σ_j weight[m, j] values[c, index[m, j], d] for d in ``entries``;
-    values (case, samples, D). The other entries of ``out`` are left as they are (zeros: the
-    samples are zero there).
+def _interpolate(values, index, weight, out):
+    """out[c, m] = Σ_j weight[m, j] values[c, index[m, j]]; values (case, samples, D).
 
     The sum runs over j in order from 0.0 either way. For the 10-point :data:`STENCIL` it is
     written out over the ten source rows, the loop along D inside: one store per entry
@@ -127,12 +150,10 @@ def _interpolate(values, index, weight, entries, out):
         The terms at the samples, shape (case, samples, D), C-contiguous.
     index, weight : numpy.ndarray
         The stencil (:func:`interpolation_weights`), shape (m, STENCIL): int and 1.
-    entries : numpy.ndarray
-        The entries d interpolated (int64, ascending): all D, or a matrix's nonzeros.
     out : numpy.ndarray
-        The terms at the m points, shape (case, m, D), overwritten at ``entries``.
+        The terms at the m points, shape (case, m, D), overwritten.
     """
-    ncase = values.shape[0]
+    ncase, D = values.shape[0], values.shape[2]
     if index.shape[1] == 10:
         for c in range(ncase):
             v = values[c]
@@ -142,8 +163,7 @@ def _interpolate(values, index, weight, entries, out):
                 a5, a6, a7, a8, a9 = v[i[5]], v[i[6]], v[i[7]], v[i[8]], v[i[9]]
                 w0, w1, w2, w3, w4 = w[0], w[1], w[2], w[3], w[4]
                 w5, w6, w7, w8, w9 = w[5], w[6], w[7], w[8], w[9]
-                for e in range(entries.shape[0]):
-                    d = entries[e]
+                for d in range(D):
                     x = 0.0 + w0 * a0[d]
                     x += w1 * a1[d]
                     x += w2 * a2[d]
@@ -158,13 +178,12 @@ def _interpolate(values, index, weight, entries, out):
         return
     for c in range(ncase):
         for m in range(index.shape[0]):
-            for e in range(entries.shape[0]):
-                out[c, m, entries[e]] = 0.0
+            for d in range(D):
+                out[c, m, d] = 0.0
             for j in range(index.shape[1]):
                 wj = weight[m, j]
                 src = index[m, j]
-                for e in range(entries.shape[0]):
-                    d = entries[e]
+                for d in range(D):
                     out[c, m, d] += wj * values[c, src, d]
 
 
@@ -172,29 +191,14 @@ _NAMES = ("mass", "damping", "stiffness", "force", "projection")
 _MATRICES = ("mass", "damping", "stiffness")
 
 
-#: A matrix term is interpolated only at its nonzeros (the others are zero at every step)
-#: where they are fewer than this fraction of its entries.
-_SPARSE_BELOW = 0.75
-
-
-def _interpolate_terms(values: dict, points: np.ndarray, samples: int,
-                       pattern: np.ndarray | None = None) -> dict:
+def _interpolate_terms(values: dict, points: np.ndarray, samples: int) -> dict:
     """Each term at ``points`` (in sample units) from its values at the samples
-    (case, samples, …), into its own C-contiguous array; M, C and K only at ``pattern``'s
-    entries (n, n) bool, if given and sparse enough, the others zero."""
+    (case, samples, …), into its own C-contiguous array."""
     index, weight = interpolation_weights(points, samples)
-    nonzero = None
-    if pattern is not None and pattern.mean() < _SPARSE_BELOW:
-        nonzero = np.flatnonzero(pattern).astype(np.int64)
     out = {}
     for name, x in values.items():
-        size = int(np.prod(x.shape[2:]))
-        if nonzero is not None and name in _MATRICES:
-            flat, entries = np.zeros((x.shape[0], len(points), size)), nonzero
-        else:
-            flat, entries = np.empty((x.shape[0], len(points), size)), np.arange(size)
-        _interpolate(np.ascontiguousarray(x).reshape(x.shape[:2] + (-1,)), index, weight,
-                     entries, flat)
+        flat = np.empty((x.shape[0], len(points), int(np.prod(x.shape[2:]))))
+        _interpolate(np.ascontiguousarray(x).reshape(x.shape[:2] + (-1,)), index, weight, flat)
         out[name] = flat.reshape((x.shape[0], len(points)) + x.shape[2:])
     return out
 
@@ -302,9 +306,15 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
             estimate /= _HALVING_GAIN
             if (estimate <= tolerance).all():
                 pattern = _pattern(values)
+                order = step_order(pattern)
+                # Sparse matrices are interpolated packed: an entry zero at every sample is
+                # zero at every step.
+                packed = {name: pack(x, order) if order is not None and name in _MATRICES
+                          else x for name, x in values.items()}
                 return PeriodTerms(**_with_none(_interpolate_terms(
-                    values, np.arange(period) * (n / period), n, pattern)), samples=n,
-                    interpolation_error=estimate, sampled=values, pattern=pattern)
+                    packed, np.arange(period) * (n / period), n)), samples=n,
+                    interpolation_error=estimate, sampled=values, pattern=pattern,
+                    order=order)
             if 4 * n > period:
                 break  # as many samples as steps: evaluate every step
             middle = evaluate_terms(model, h, (np.arange(n) + 0.5) * (period / n))
@@ -318,16 +328,42 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                 y = np.empty((ncase, period) + x.shape[2:])
                 y[:, ::stride], y[:, rest] = x, others[name]
                 full[name] = y
-            return PeriodTerms(**_with_none(full), samples=period,
-                               interpolation_error=np.zeros(ncase), pattern=_pattern(full))
-    values = evaluate_terms(model, h, np.arange(period, dtype=float))
-    return PeriodTerms(**_with_none(values), samples=period, interpolation_error=np.zeros(ncase),
-                       pattern=_pattern(values))
+            return _exact(full)
+    return _exact(evaluate_terms(model, h, np.arange(period, dtype=float)))
 
 
 def _pattern(values: dict) -> np.ndarray:
     """Nonzeros of M, C, K wherever ``values`` holds them (and, interpolated, at every step)."""
     return nonzero_pattern(*(values.get(name) for name in _MATRICES))
+
+
+def _exact(values: dict) -> PeriodTerms:
+    """The terms evaluated at every step, their matrices packed where sparse."""
+    pattern = _pattern(values)
+    order = step_order(pattern)
+    if order is not None:
+        values = {name: pack(x, order) if name in _MATRICES else x
+                  for name, x in values.items()}
+    return PeriodTerms(**_with_none(values), samples=len(values["force"][0]),
+                       interpolation_error=np.zeros(len(values["force"])), pattern=pattern,
+                       order=order)
+
+
+def with_sparsity(terms: PeriodTerms) -> PeriodTerms:
+    """``terms`` given as dense matrices, with their pattern, and packed where sparse.
+
+    Parameters
+    ----------
+    terms : PeriodTerms
+        Dense terms (``order`` None), e.g. made by hand.
+    """
+    values = {name: getattr(terms, name) for name in _MATRICES}
+    pattern = _pattern(values)
+    order = step_order(pattern)
+    packed = {name: None if x is None or order is None else pack(x, order)
+              for name, x in values.items()}
+    return dataclasses.replace(terms, pattern=pattern, order=order,
+                               **({} if order is None else packed))
 
 
 def interpolate_periodic(values: np.ndarray, period: int,

@@ -88,8 +88,8 @@ def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES,
     for start in range(0, samples, block):
         if stride:
             steps = stride * np.arange(start, min(start + block, samples))
-            mass, stiffness, force = (x[:, steps] for x in
-                                      (period.mass, period.stiffness, period.force))
+            mass, stiffness, force = (period.dense(name, steps) for name in
+                                      ("mass", "stiffness", "force"))
         else:
             terms, _ = terms_at(model, times[:, start:start + block], effects,
                                 frozenset({"elastic_mass"}))

@@ -59,7 +59,7 @@ def test_sampled_terms_match_exact_terms_within_their_estimate(steps):
     assert sampled.samples < steps and exact.samples == steps
     assert np.all(sampled.interpolation_error <= TOLERANCE)
     for name in ("mass", "damping", "stiffness", "force", "projection"):
-        a, b = getattr(sampled, name), getattr(exact, name)
+        a, b = sampled.dense(name), exact.dense(name)
         axes = tuple(range(1, b.ndim))
         error = np.abs(a - b).max(axis=axes) / np.abs(b).max(axis=axes)
         # The estimate bounds the true error (it carries a safety factor of 4).
@@ -67,6 +67,24 @@ def test_sampled_terms_match_exact_terms_within_their_estimate(steps):
     # Step k of a later period is step k mod P.
     for got, want in zip(exact(steps + 5), exact(5)):
         assert np.array_equal(got, want)
+    # The full FE four-bar's step matrices are sparse: held packed, the same as dense.
+    assert sampled.order is not None and sampled.stiffness.ndim == 3
+    assert np.array_equal(exact(7)[2], exact.dense("stiffness")[:, 7])
+
+
+def test_packed_interpolation_gives_the_bits_of_the_dense_one():
+    """Interpolating only the nonzeros changes nothing: every entry is interpolated alone."""
+    from ced.response.period_terms import _interpolate_terms
+    from ced.response.step_pattern import pack, step_order, unpack
+    rng = np.random.default_rng(8)
+    n = 12
+    pattern = np.abs(np.subtract.outer(np.arange(n), np.arange(n))) <= 2
+    order = step_order(pattern)
+    values = rng.standard_normal((2, 16, n, n)) * pattern
+    points = np.arange(64) * 0.25
+    dense = _interpolate_terms({"stiffness": values}, points, 16)["stiffness"]
+    packed = _interpolate_terms({"stiffness": pack(values, order)}, points, 16)["stiffness"]
+    assert np.array_equal(unpack(packed, order, n), dense)
 
 
 def test_short_periods_are_evaluated_exactly():
@@ -83,7 +101,7 @@ def test_failed_check_falls_back_to_every_step_reusing_the_samples():
     exact = period_terms(model, batch.step_size, 512, exact=True)
     assert fallback.samples == 512
     for name in ("mass", "damping", "stiffness", "force", "projection"):
-        a, b = getattr(fallback, name), getattr(exact, name)
+        a, b = fallback.dense(name), exact.dense(name)
         assert np.allclose(a, b, rtol=1e-13, atol=1e-13 * np.abs(b).max()), name
 
 
@@ -106,7 +124,7 @@ def test_quasi_static_response_from_the_samples_matches_every_step():
                         for speed in (50.0, 150.0)])
     terms = period_terms(build_model(batch), batch.step_size, steps)
     assert terms.sampled is not None
-    exact = _solve_static(terms.stiffness, terms.force)
+    exact = _solve_static(terms.dense("stiffness"), terms.force)
     sampled = _static(terms)
     scale = np.abs(exact).max(axis=(1, 2))
     assert (np.abs(sampled - exact).max(axis=(1, 2)) <= 10 * TOLERANCE * scale).all()
@@ -123,31 +141,9 @@ def test_written_out_ten_point_sum_equals_the_generic_loop():
     values = rng.standard_normal((3, samples, 23))
     index, weight = interpolation_weights(points, samples)
     written, generic = np.empty((3, 40, 23)), np.empty((3, 40, 23))
-    every = np.arange(23)
-    _interpolate(values, index, weight, every, written)
+    _interpolate(values, index, weight, written)
     _interpolate(values, np.concatenate([index, index[:, :1]], axis=1),
-                 np.concatenate([weight, np.zeros((40, 1))], axis=1), every, generic)
+                 np.concatenate([weight, np.zeros((40, 1))], axis=1), generic)
     assert np.array_equal(written, generic)
     want = np.einsum("mj,cmjd->cmd", weight, values[:, index])
     assert np.allclose(written, want, rtol=1e-13, atol=1e-13)
-    # Some entries only: those get the same bits, the others are not touched.
-    some = np.array([0, 5, 6, 22])
-    part = np.full((3, 40, 23), 7.0)
-    _interpolate(values, index, weight, some, part)
-    assert np.array_equal(part[..., some], written[..., some])
-    assert (np.delete(part, some, axis=2) == 7.0).all()
-
-
-def test_sparse_terms_are_interpolated_at_their_nonzeros_only_with_the_same_bits():
-    """M, C, K interpolated at the pattern's entries equal the full interpolation (the others
-    are zero in every sample, and so in the interpolation)."""
-    from ced.response.period_terms import _interpolate_terms
-    rng = np.random.default_rng(8)
-    pattern = np.eye(6, dtype=bool) | np.eye(6, k=1, dtype=bool) | np.eye(6, k=-1, dtype=bool)
-    values = {"stiffness": rng.standard_normal((2, 16, 6, 6)) * pattern,
-              "force": rng.standard_normal((2, 16, 6))}
-    points = np.arange(64) * 0.25
-    full = _interpolate_terms(values, points, 16)
-    sparse = _interpolate_terms(values, points, 16, pattern)
-    for name in values:
-        assert np.array_equal(full[name], sparse[name])

@@ -7,8 +7,9 @@ from hypothesis import strategies as st
 from ced.response.integrators import generalized_alpha, newmark, start
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
-from ced.response.step_pattern import (MAX_FILL, nonzero_pattern, pattern_factor, pattern_solve,
-                                       step_order)
+from ced.response.period_terms import with_sparsity
+from ced.response.step_pattern import (MAX_FILL, nonzero_pattern, pack, packed_factor,
+                                       packed_solve, step_order, unpack)
 
 
 def _linkage_pattern(links: int, dofs: int, joints: int) -> np.ndarray:
@@ -33,10 +34,19 @@ def _spd(rng, pattern: np.ndarray, shape=()) -> np.ndarray:
 
 
 def _factor(order, S):
-    LU = S[np.ix_(order.perm, order.perm)].copy()
-    ok = pattern_factor(LU, np.diag(LU).copy(), order.upper_ptr, order.upper_idx,
-                        order.column_ptr, order.column_idx)
+    """S's packed factors in ``order`` (fill-ins start at 0)."""
+    n = len(S)
+    LU = np.where(order.lu_source >= 0, pack(S, order)[np.maximum(order.lu_source, 0)], 0.0)
+    ok = packed_factor(LU, order.lu_ptr, order.lu_idx, order.diagonal, np.empty(n))
     return ok, LU
+
+
+def _dense_factors(order, LU, n):
+    """The packed factors as one (n, n) matrix (L below the diagonal, U on and above)."""
+    out = np.zeros((n, n))
+    rows = np.repeat(np.arange(n), np.diff(order.lu_ptr))
+    out[rows, order.lu_idx] = LU
+    return out
 
 
 @pytest.mark.parametrize("columns", [1, 5])
@@ -52,9 +62,10 @@ def test_ordered_lu_without_pivoting_solves_a_linkage_system(columns):
     assert ok
     B = rng.standard_normal((len(S), columns))
     X = B.copy()
-    pattern_solve(LU, order.perm, order.lower_ptr, order.lower_idx, order.upper_ptr,
-                  order.upper_idx, X, np.empty_like(X))
+    packed_solve(LU, order.perm, order.lu_ptr, order.lu_idx, order.diagonal, X,
+                 np.empty_like(X))
     assert np.allclose(X, np.linalg.solve(S, B), rtol=1e-12, atol=1e-12)
+    assert np.array_equal(unpack(pack(S, order), order, len(S)), S)
 
 
 @settings(max_examples=30, deadline=None)
@@ -66,20 +77,18 @@ def test_the_symbolic_factors_hold_every_nonzero_of_the_numeric_ones(links, dofs
     rng = np.random.default_rng(seed)
     pattern = _linkage_pattern(links, dofs, joints)
     order = step_order(pattern, max_fill=1.0)
-    S = _spd(rng, pattern)[np.ix_(order.perm, order.perm)]
-    dense = S.copy()
-    for k in range(len(S)):  # plain dense elimination, no pivoting
+    n = len(pattern)
+    S = _spd(rng, pattern)
+    dense = S[np.ix_(order.perm, order.perm)]
+    for k in range(n):  # plain dense elimination, no pivoting
         dense[k + 1:, k] /= dense[k, k]
         dense[k + 1:, k + 1:] -= np.outer(dense[k + 1:, k], dense[k, k + 1:])
-    symbolic = np.zeros_like(S, dtype=bool)
-    for ptr, idx in ((order.lower_ptr, order.lower_idx), (order.upper_ptr, order.upper_idx)):
-        for i in range(len(S)):
-            symbolic[i, idx[ptr[i]:ptr[i + 1]]] = True
-    symbolic |= np.eye(len(S), dtype=bool)
+    symbolic = _dense_factors(order, np.ones(len(order.lu_idx)), n) != 0
+    assert symbolic.diagonal().all()
     assert not (dense[~symbolic] != 0).any()
-    ok, LU = _factor(order, S[np.ix_(np.argsort(order.perm), np.argsort(order.perm))])
+    ok, LU = _factor(order, S)
     assert ok
-    assert np.allclose(LU[symbolic], dense[symbolic], rtol=1e-10, atol=1e-12)
+    assert np.allclose(_dense_factors(order, LU, n), dense, rtol=1e-10, atol=1e-12)
 
 
 def test_an_indefinite_matrix_is_refused_and_a_dense_pattern_gets_no_order():
@@ -122,23 +131,25 @@ def _sparse_system(rng, ncase, period, damped, indefinite_steps=()):
 @pytest.mark.parametrize("columns", [1, 4])
 @pytest.mark.parametrize("indefinite", [(), (2, 5)])
 def test_sparse_compiled_march_equals_numpy_march(scheme, damped, columns, indefinite):
-    """On a linkage-like pattern the compiled march orders and factorizes without pivoting;
-    steps whose matrix is indefinite fall back to the dense pivoted LU; both agree with the
-    numpy loop (np.linalg.solve) to round-off."""
+    """On a linkage-like pattern the compiled march runs on the packed terms, ordered and
+    factorized without pivoting; a batch with an indefinite step matrix falls back to the
+    dense march with pivoting; both agree with the numpy loop (np.linalg.solve) to
+    round-off."""
     rng = np.random.default_rng(5)
     ncase, period, n_steps = 3, 7, 23
-    terms = _sparse_system(rng, ncase, period, damped, indefinite)
+    terms = with_sparsity(_sparse_system(rng, ncase, period, damped, indefinite))
+    assert terms.order is not None and terms.stiffness.ndim == 3  # packed
     h = np.array([1e-3, 2e-3, 5e-4])
-    n = terms.stiffness.shape[-1]
+    n = terms.n
     q0 = rng.standard_normal((ncase, n, columns))
     v0 = rng.standard_normal((ncase, n, columns))
     compiled, reference = Marcher(scheme, terms, h), Marcher(scheme, terms, h, compiled=False)
-    assert compiled.order is not None
+    assert compiled.packed
     first = start(compiled.columns(columns), q0, v0)
     end_c, rec_c = compiled.march(first, n_steps, record_every=2)
     end_n, rec_n = reference.march(first, n_steps, record_every=2)
-    kinds = set(np.unique(compiled._factored))
-    assert kinds == ({1, 2} if indefinite else {1})
+    # An indefinite step matrix sends the batch to the dense march with pivoting.
+    assert compiled.packed == (not indefinite)
     assert np.abs(rec_c - rec_n).max() <= 1e-11 * np.abs(rec_n).max()
     for x, y in zip(end_c[:4], end_n[:4]):
         assert np.allclose(x, y, rtol=1e-10, atol=1e-11 * np.abs(y).max())
