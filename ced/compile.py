@@ -23,8 +23,8 @@ __all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_DENSE"]
 
 #: Solved by :func:`compile_kernels`: the default study's base scene (spectral periodic state,
 #: Craig–Bampton links, Floquet analysis by shooting, forced-resonance check, modal analysis,
-#: error estimate) on the reference four-bar; 256 steps per revolution so that the period's
-#: terms are sampled and interpolated (:mod:`ced.response.period_terms`).
+#: error estimate, 128 steps per revolution: the period's terms evaluated at every step) on the
+#: reference four-bar.
 WARM_UP_SCENE = {
     "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                   "rocker": 0.35},
@@ -33,15 +33,18 @@ WARM_UP_SCENE = {
     "effects": ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening"],
     "discretization": {"formulation": "euler_bernoulli", "elements_per_link": 4,
                        "modes_per_link": 2},
-    "time": {"revolutions": 1, "steps_per_revolution": 256, "start": "periodic",
+    "time": {"revolutions": 1, "steps_per_revolution": 128, "start": "periodic",
              "periodic_solver": "spectral", "collocation_points": 8},
     "modal": {"modes": 1, "angles": 2},
     "outputs": {"stations": 3},
 }
-#: The same with one flexible link: its step matrices are dense (the marching kernel for dense
-#: matrices; two flexible links have sparse ones, :mod:`ced.response.step_pattern`).
+#: The same with one flexible link, whose step matrices are dense (the kernels for dense
+#: matrices; two flexible links have sparse ones, :mod:`ced.response.step_pattern`), and 256
+#: steps per revolution, so that the period's terms are sampled and interpolated
+#: (:mod:`ced.response.period_terms`).
 WARM_UP_DENSE = {**WARM_UP_SCENE, "links": {"crank": {"flexible": False},
-                                             "rocker": {"flexible": False}}}
+                                             "rocker": {"flexible": False}},
+                 "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 256}}
 
 
 def kernels() -> dict[str, object]:

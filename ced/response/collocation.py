@@ -42,6 +42,7 @@ from .kernels import expand
 from .model import Model, build_model
 from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
 from .spectral import evaluate, solve_periodic
+from .step_pattern import unpack
 
 __all__ = ["SpectralSteadyState", "spectral_steady_state", "resample", "spectral_tail",
            "START_POINTS", "MAX_POINTS", "MAX_ITERATIONS", "LADDER_ITERATIONS",
@@ -210,11 +211,13 @@ def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.
     them; else interpolated from them by :func:`ced.response.period_terms.interpolate_periodic`
     (checked to its tolerance), or, where that check fails, evaluated at the points.
     """
-    source = period.sampled if period.sampled is not None else {
-        name: period.dense(name) for name in _TERMS}
     out: dict[str, np.ndarray | None] = {}
     for name in _TERMS:
-        values = source.get(name)
+        if period.sampled is not None:
+            values, packed = period.sampled.get(name), False
+        else:  # the period's steps, matrices packed where sparse: unpacked at the points only
+            values = getattr(period, name)
+            packed = period.order is not None and name in ("mass", "damping", "stiffness")
         if values is None:
             out[name] = None
             continue
@@ -225,6 +228,8 @@ def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.
             out[name] = interpolate_periodic(values[cases], points)
             if out[name] is None:  # not smooth enough between the samples: evaluate
                 return _evaluate_at_points(model, period.period, points, cases)
+        if packed:
+            out[name] = unpack(out[name], period.order, period.n)
     return out
 
 

@@ -25,7 +25,7 @@ from .batch import Batch
 from .collocation import SpectralSteadyState, spectral_steady_state
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import from_independent, integrator_for, stability_limit, start
-from .kernels import expand, static_period
+from .kernels import expand, static_period, static_period_packed
 from .marching import Marcher
 from .model import Model, build_model, terms_at
 from .period_terms import PeriodTerms, interpolate_periodic, period_terms
@@ -270,7 +270,17 @@ def _static(period: PeriodTerms) -> np.ndarray:
                                                period.sampled["force"]), period.period)
         if y is not None:
             return y
-    return _solve_static(period.dense("stiffness"), period.force)
+    if period.order is None:
+        return _solve_static(period.stiffness, period.force)
+    y = np.empty(period.force.shape)
+    ok = np.ones(len(y), bool)
+    o = period.order
+    static_period_packed(period.stiffness, np.ascontiguousarray(period.force), y, ok, o.perm,
+                         o.rows_ptr, o.rows_idx, o.lu_ptr, o.lu_idx, o.diagonal, o.lu_source)
+    if not ok.all():  # as numpy's solve would: the batch is re-run case by case
+        raise np.linalg.LinAlgError(
+            f"Singular matrix: the stiffness of case {int(np.argmax(~ok))}")
+    return y
 
 
 def _solve_static(K: np.ndarray, F: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ from ..rigid.small_systems import lu_factor, lu_solve
 from .step_pattern import packed_factor, packed_solve
 
 __all__ = ["lu_factor", "lu_solve", "lu_solve_columns", "newmark_march", "newmark_march_packed",
-           "static_period", "expand"]
+           "static_period", "static_period_packed", "expand"]
 
 _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 
@@ -332,6 +332,51 @@ def static_period(K, F, y, ok):
                 y[c, j, r] = F[c, j, r]
                 for k in range(n):
                     A[r, k] = K[c, j, r, k]
+            if not lu_factor(A, piv):
+                ok[c] = False
+                y[c, j] = np.nan
+                continue
+            lu_solve(A, piv, y[c, j])
+
+
+@nb.njit(**_JIT)
+def static_period_packed(K, F, y, ok, perm, rows_ptr, rows_idx, lu_ptr, lu_idx, diagonal,
+                         lu_source):
+    """:func:`static_period` on packed stiffness matrices K (case, P, nnz)
+    (:mod:`ced.response.step_pattern`), factorized without pivoting; a K the factorization
+    refuses is solved densely with partial pivoting. ``ok[c]`` False where one is singular.
+
+    Parameters
+    ----------
+    K : numpy.ndarray
+        Packed stiffness matrices, shape (case, P, nnz).
+    F, y, ok : numpy.ndarray
+        As for :func:`static_period`.
+    perm, rows_ptr, rows_idx, lu_ptr, lu_idx, diagonal, lu_source : numpy.ndarray
+        :class:`ced.response.step_pattern.StepOrder`.
+    """
+    ncase, P, n = F.shape[0], F.shape[1], F.shape[2]
+    LU = np.empty(lu_idx.shape[0])
+    row = np.empty(n)
+    work = np.empty((n, 1))
+    A = np.empty((n, n))
+    piv = np.empty(n, np.int64)
+    for c in range(ncase):
+        for j in range(P):
+            Kj = K[c, j]
+            for b in range(LU.shape[0]):
+                LU[b] = Kj[lu_source[b]] if lu_source[b] >= 0 else 0.0
+            x = y[c, j].reshape((n, 1))
+            for r in range(n):
+                x[r, 0] = F[c, j, r]
+            if packed_factor(LU, lu_ptr, lu_idx, diagonal, row):
+                packed_solve(LU, perm, lu_ptr, lu_idx, diagonal, x, work)
+                continue
+            for r in range(n):  # refused: the dense matrix, with pivoting
+                for m in range(n):
+                    A[r, m] = 0.0
+                for b in range(rows_ptr[r], rows_ptr[r + 1]):
+                    A[r, rows_idx[b]] = Kj[b]
             if not lu_factor(A, piv):
                 ok[c] = False
                 y[c, j] = np.nan

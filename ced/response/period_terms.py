@@ -84,8 +84,8 @@ class PeriodTerms:
         """Order of the step matrices (elastic DOFs)."""
         return self.force.shape[-1]
 
-    def dense(self, name: str, steps=slice(None)) -> np.ndarray | None:
-        """Term ``name`` at ``steps`` (an index or slice of the period's steps), matrices as
+    def dense(self, name: str, steps=slice(None), cases=slice(None)) -> np.ndarray | None:
+        """Term ``name`` of ``cases`` at ``steps`` (indices or slices), matrices as
         (case, step, n, n) whether held packed or not; None where absent.
 
         Parameters
@@ -94,11 +94,16 @@ class PeriodTerms:
             ``mass``, ``damping``, ``stiffness``, ``force`` or ``projection``.
         steps : slice or numpy.ndarray, optional
             Steps of the period (default: all).
+        cases : slice or numpy.ndarray, optional
+            Cases (default: all).
         """
         x = getattr(self, name)
-        if x is None or self.order is None or name not in _MATRICES:
-            return None if x is None else x[:, steps]
-        return unpack(x[:, steps], self.order, self.n)
+        if x is None:
+            return None
+        x = x[cases][:, steps]
+        if self.order is None or name not in _MATRICES:
+            return x
+        return unpack(x, self.order, self.n)
 
     def __call__(self, k: int):
         """(M, C, K, F) at step k (F (case, n)), the ``terms`` of
