@@ -156,3 +156,23 @@ def test_sparse_compiled_march_equals_numpy_march(scheme, damped, columns, indef
     again_c, _ = compiled.march(end_c, n_steps)  # the factorizations reused
     again_n, _ = reference.march(end_n, n_steps)
     assert np.allclose(again_c.q, again_n.q, rtol=1e-9, atol=1e-11 * np.abs(again_n.q).max())
+
+
+@pytest.mark.parametrize("indefinite", [False, True])
+def test_packed_quasi_static_solve_equals_numpy(indefinite):
+    """K y = F at every step from packed K; an indefinite K (refused without pivoting) is
+    solved densely with pivoting."""
+    from ced.response.kernels import static_period_packed
+    rng = np.random.default_rng(6)
+    pattern = _linkage_pattern(links=3, dofs=7, joints=2)
+    K = _spd(rng, pattern, (2, 5))
+    if indefinite:
+        K[1, 3] *= -1.0
+    F = rng.standard_normal((2, 5, len(pattern)))
+    order = step_order(pattern)
+    y, ok = np.empty_like(F), np.ones(2, bool)
+    o = order
+    static_period_packed(pack(K, order), F, y, ok, o.perm, o.rows_ptr, o.rows_idx, o.lu_ptr,
+                         o.lu_idx, o.diagonal, o.lu_source)
+    assert ok.all()
+    assert np.allclose(y, np.linalg.solve(K, F[..., None])[..., 0], rtol=1e-12, atol=1e-12)
