@@ -18,7 +18,7 @@ import functools
 import numba as nb
 import numpy as np
 
-__all__ = ["lu_factor", "lu_solve", "solve_batch", "block_order"]
+__all__ = ["lu_factor", "lu_solve", "solve_blocks", "solve_batch", "block_order"]
 
 _JIT = dict(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 
@@ -105,7 +105,23 @@ def lu_solve(LU: np.ndarray, piv: np.ndarray, x: np.ndarray) -> None:
 
 
 @nb.njit(**_JIT)
-def _solve_blocks(A, b, x, ratio, rows, cols, starts):
+def solve_blocks(A, b, x, ratio, rows, cols, starts):
+    """Solve A x = b for a batch of systems, block by block, with each one's Hadamard ratio
+    (the kernel of :func:`solve_batch`, callable from other kernels).
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        Matrices (batch, n, n), float64, C-contiguous; not modified.
+    b : numpy.ndarray
+        Right-hand sides (batch, n).
+    x : numpy.ndarray
+        Solutions (batch, n), filled; NaN where the LU fails.
+    ratio : numpy.ndarray
+        Hadamard ratios |det A| / Π‖rowᵢ‖ (batch,), filled; 0 where the LU fails.
+    rows, cols, starts : numpy.ndarray
+        A :func:`block_order` (one block ``0…n`` for the dense LU), int64.
+    """
     n = A.shape[1]
     size = 0
     for k in range(starts.shape[0] - 1):
@@ -257,5 +273,5 @@ def solve_batch(A: np.ndarray, b: np.ndarray,
     if blocks is None:  # one block: the dense LU
         whole = np.arange(n, dtype=np.int64)
         blocks = (whole, whole, np.array([0, n], np.int64))
-    _solve_blocks(flat_A, flat_b, x, ratio, *blocks)
+    solve_blocks(flat_A, flat_b, x, ratio, *blocks)
     return x.reshape(b.shape), ratio.reshape(A.shape[:-2])
