@@ -49,14 +49,15 @@ def input_motion(
     angle = theta0 + omega * time
     velocity = np.broadcast_to(omega, time.shape).copy()
     acceleration = np.zeros_like(time)
-    if amplitude is not None:
-        amp = np.asarray(amplitude, float)[:, None]
+    amp = None if amplitude is None else np.asarray(amplitude, float)[:, None]
+    if amp is not None and np.isfinite(amp).any():  # (no sines for a batch that only rotates)
         rocks = np.broadcast_to(np.isfinite(amp), time.shape)
         phase = omega * time
+        sine = np.sin(phase)
         a = np.where(np.isfinite(amp), amp, 0.0)
-        angle = np.where(rocks, theta0 + a * np.sin(phase), angle)
+        angle = np.where(rocks, theta0 + a * sine, angle)
         velocity = np.where(rocks, a * omega * np.cos(phase), velocity)
-        acceleration = np.where(rocks, -a * omega**2 * np.sin(phase), acceleration)
+        acceleration = np.where(rocks, -a * omega**2 * sine, acceleration)
     return InputMotion(time, angle, velocity, acceleration)
 
 
@@ -188,13 +189,16 @@ def four_bar(
     g, a, b, c = (np.asarray(x, float)[:, None] for x in (ground, crank, coupler, rocker))
     th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
     ncase, nstep = th2.shape
-    A = np.zeros((ncase, nstep, 2))
-    B = a[..., None] * unit(th2)
-    D = np.zeros_like(B)
-    D[..., 0] = g
-    BD = D - B
-    d = np.hypot(BD[..., 0], BD[..., 1])
-    psi = np.arctan2(BD[..., 1], BD[..., 0])
+    # Every joint's position, velocity, acceleration written in place, component by component,
+    # each cos and sin once: the arithmetic (and bits) of the vector expressions
+    # a ω2 e⊥2 etc., without a (case, step, 2) temporary per term.
+    P, V, Acc = (np.zeros((ncase, nstep, 4, 2)) for _ in range(3))
+    c2, s2 = np.cos(th2), np.sin(th2)
+    Bx, By = np.multiply(a, c2, out=P[:, :, 1, 0]), np.multiply(a, s2, out=P[:, :, 1, 1])
+    P[:, :, 3, 0] = g
+    BDx, BDy = g - Bx, 0.0 - By  # D − B, D = (g, 0)
+    d = np.hypot(BDx, BDy)
+    psi = np.arctan2(BDy, BDx)
     # Angle at B between B→D and B→C (law of cosines); clipped at the toggle limits.
     cos_beta = np.clip((b * b + d * d - c * c) / (2.0 * b * d), -1.0, 1.0)
     beta = np.arccos(cos_beta)
@@ -204,8 +208,11 @@ def four_bar(
     s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
     touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
     th3 = np.unwrap(track_branch(candidates, start, touching), axis=1)
-    C = B + b[..., None] * unit(th3)
-    th4 = np.unwrap(np.arctan2(C[..., 1] - D[..., 1], C[..., 0] - D[..., 0]), axis=1)
+    c3, s3 = np.cos(th3), np.sin(th3)
+    Cx = np.add(Bx, b * c3, out=P[:, :, 2, 0])
+    Cy = np.add(By, b * s3, out=P[:, :, 2, 1])
+    th4 = np.unwrap(np.arctan2(Cy - 0.0, Cx - g), axis=1)
+    c4, s4 = np.cos(th4), np.sin(th4)
 
     # Velocities: a ω2 e⊥2 + b ω3 e⊥3 = c ω4 e⊥4, dotted with e4 and e3 (e⊥i·ej = sin(θj − θi)).
     s34 = np.sin(th3 - th4)
@@ -214,21 +221,28 @@ def four_bar(
     w3 = a * w2 * np.sin(th4 - th2) / (b * safe)
     w4 = a * w2 * np.sin(th3 - th2) / (c * safe)
     w3, w4 = fill_singular(w3, singular), fill_singular(w4, singular)
-    # Accelerations: b α3 e⊥3 − c α4 e⊥4 = −R with the known part R below.
-    R = (
-        a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
-        - b[..., None] * (w3**2)[..., None] * unit(th3)
-        + c[..., None] * (w4**2)[..., None] * unit(th4)
-    )
-    al3 = np.sum(R * unit(th4), axis=-1) / (b * safe)
-    al4 = np.sum(R * unit(th3), axis=-1) / (c * safe)
+    # Accelerations: b α3 e⊥3 − c α4 e⊥4 = −R with the known part R = aB − b ω3² e3 + c ω4² e4,
+    # aB = a (α2 e⊥2 − ω2² e2) the acceleration of B.
+    w2w2 = w2 * w2
+    aBx = np.multiply(a, al2 * -s2 - w2w2 * c2, out=Acc[:, :, 1, 0])
+    aBy = np.multiply(a, al2 * c2 - w2w2 * s2, out=Acc[:, :, 1, 1])
+    b33, c44 = b * (w3 * w3), c * (w4 * w4)
+    Rx = aBx - b33 * c3 + c44 * c4
+    Ry = aBy - b33 * s3 + c44 * s4
+    # R·e4 and R·e3 summed from +0.0 as numpy's sum over the last axis is (so that the
+    # sign of a zero α, at a change point, is that of the vector expression's too).
+    al3 = (0.0 + Rx * c4 + Ry * s4) / (b * safe)
+    al4 = (0.0 + Rx * c3 + Ry * s3) / (c * safe)
     al3, al4 = fill_singular(al3, singular), fill_singular(al4, singular)
 
-    vA = np.zeros_like(B)
-    vB = a[..., None] * w2[..., None] * perp(th2)
-    vC = c[..., None] * w4[..., None] * perp(th4)
-    aB = a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
-    aC = c[..., None] * (al4[..., None] * perp(th4) - (w4**2)[..., None] * unit(th4))
+    aw2, cw4 = a * w2, c * w4
+    np.multiply(aw2, -s2, out=V[:, :, 1, 0])
+    np.multiply(aw2, c2, out=V[:, :, 1, 1])
+    np.multiply(cw4, -s4, out=V[:, :, 2, 0])
+    np.multiply(cw4, c4, out=V[:, :, 2, 1])
+    w4w4 = w4 * w4
+    np.multiply(c, al4 * -s4 - w4w4 * c4, out=Acc[:, :, 2, 0])
+    np.multiply(c, al4 * c4 - w4w4 * s4, out=Acc[:, :, 2, 1])
     return RigidMotion(
         topology=topology("four_bar"),
         time=motion.time,
@@ -236,9 +250,9 @@ def four_bar(
         link_angle=np.stack([th2, th3, th4], axis=-1),
         link_angular_velocity=np.stack([w2, w3, w4], axis=-1),
         link_angular_acceleration=np.stack([al2, al3, al4], axis=-1),
-        joint_position=np.stack([A, B, C, D], axis=2),
-        joint_velocity=np.stack([vA, vB, vC, vA], axis=2),
-        joint_acceleration=np.stack([vA, aB, aC, vA], axis=2),
+        joint_position=P,
+        joint_velocity=V,
+        joint_acceleration=Acc,
         singular=singular,
     )
 
