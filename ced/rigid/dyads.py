@@ -13,7 +13,7 @@ import numpy as np
 
 from ..problem.linkage import linkage_topology
 from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, fill_singular, perp,
-                         track_branch, unit)
+                         track_branch, unit, unwrap)
 
 __all__ = ["linkage", "dyad_sines", "point_motion"]
 
@@ -79,11 +79,11 @@ def _rrr(P, Q, l1, l2, branch):
     start = np.where(branch > 0, 0, 1)
     # A dyad that assembles over the whole motion has its two solutions meet only where the
     # loop passes a change point: there the one continuing straight through is kept.
-    th1 = np.unwrap(track_branch(candidates, start, np.ones(len(l1), bool)), axis=1)
+    th1 = unwrap(track_branch(candidates, start, np.ones(len(l1), bool)))
     c1, s1 = np.cos(th1), np.sin(th1)
     # M − Q with M = P + l1 e1.
-    th2 = np.unwrap(np.arctan2(P[0][..., 1] + l1 * s1 - Q[0][..., 1],
-                               P[0][..., 0] + l1 * c1 - Q[0][..., 0]), axis=1)
+    th2 = unwrap(np.arctan2(P[0][..., 1] + l1 * s1 - Q[0][..., 1],
+                            P[0][..., 0] + l1 * c1 - Q[0][..., 0]))
     # l1 ω1 e⊥1 − l2 ω2 e⊥2 = vQ − vP, dotted with e2 and e1 (e⊥i·ej = sin(θj − θi)).
     s21 = np.sin(th2 - th1)
     singular = np.abs(s21) < SINGULAR_SIN
@@ -111,7 +111,7 @@ def _rrp(P, length, guide_angle, guide_point, branch):
     # n·(M − P) = −h with M − P = l e1: sin(θ1 − φ) = −h/l, cos(θ1 − φ) = ±√(1 − sin²).
     sin_rel = -height / length
     cos_rel = branch * np.sqrt(np.clip(1.0 - sin_rel**2, 0.0, None))
-    th = np.unwrap(np.arctan2(sin_rel, cos_rel), axis=1) + phi
+    th = unwrap(np.arctan2(sin_rel, cos_rel)) + phi
     # n·vM = 0 and n·aM = 0 on a fixed guide (n·e⊥1 = cos(θ1 − φ), n·e1 = sin(θ1 − φ)).
     w = -_dot(P[1], n) / (length * cos_rel)
     al = (-_dot(P[2], n) + length * w * w * sin_rel) / (length * cos_rel)
@@ -133,7 +133,7 @@ def _rpr(P, Q, offset):
     dist2 = _dot(d, d)
     e = offset[:, None]
     s = np.sqrt(np.clip(dist2 - e * e, 0.0, None))
-    th = np.unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s), axis=1)
+    th = unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s))
     e1, n1 = unit(th), perp(th)
     dv, da = Q[1] - P[1], Q[2] - P[2]
     w = _dot(dv, n1) / s
