@@ -256,9 +256,10 @@ def four_bar(
     # Every joint's position, velocity, acceleration written in place, component by component,
     # each cos and sin once: the arithmetic (and bits) of the vector expressions
     # a ω2 e⊥2 etc., without a (case, step, 2) temporary per term.
-    P, V, Acc = (np.zeros((ncase, nstep, 4, 2)) for _ in range(3))
+    P, V, Acc = joints = tuple(np.zeros((ncase, nstep, 4, 2)) for _ in range(3))
     c2, s2 = np.cos(th2), np.sin(th2)
-    Bx, By = np.multiply(a, c2, out=P[:, :, 1, 0]), np.multiply(a, s2, out=P[:, :, 1, 1])
+    _tip(joints, 1, a, (c2, s2), w2, al2)
+    Bx, By = P[:, :, 1, 0], P[:, :, 1, 1]
     P[:, :, 3, 0] = g
     BDx, BDy = g - Bx, 0.0 - By  # D − B, D = (g, 0)
     d = np.hypot(BDx, BDy)
@@ -287,9 +288,7 @@ def four_bar(
     w3, w4 = fill_singular(w3, singular), fill_singular(w4, singular)
     # Accelerations: b α3 e⊥3 − c α4 e⊥4 = −R with the known part R = aB − b ω3² e3 + c ω4² e4,
     # aB = a (α2 e⊥2 − ω2² e2) the acceleration of B.
-    w2w2 = w2 * w2
-    aBx = np.multiply(a, al2 * -s2 - w2w2 * c2, out=Acc[:, :, 1, 0])
-    aBy = np.multiply(a, al2 * c2 - w2w2 * s2, out=Acc[:, :, 1, 1])
+    aBx, aBy = Acc[:, :, 1, 0], Acc[:, :, 1, 1]
     b33, c44 = b * (w3 * w3), c * (w4 * w4)
     Rx = aBx - b33 * c3 + c44 * c4
     Ry = aBy - b33 * s3 + c44 * s4
@@ -299,9 +298,7 @@ def four_bar(
     al4 = (0.0 + Rx * c3 + Ry * s3) / (c * safe)
     al3, al4 = fill_singular(al3, singular), fill_singular(al4, singular)
 
-    aw2, cw4 = a * w2, c * w4
-    np.multiply(aw2, -s2, out=V[:, :, 1, 0])
-    np.multiply(aw2, c2, out=V[:, :, 1, 1])
+    cw4 = c * w4
     np.multiply(cw4, -s4, out=V[:, :, 2, 0])
     np.multiply(cw4, c4, out=V[:, :, 2, 1])
     w4w4 = w4 * w4
@@ -351,19 +348,16 @@ def slider_crank(
     a, b, e = (np.asarray(x, float)[:, None] for x in (crank, rod, offset))
     sigma = np.asarray(branch, float)[:, None]
     th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
-    sin3 = (e - a * np.sin(th2)) / b
+    c2, s2 = np.cos(th2), np.sin(th2)
+    sin3 = (e - a * s2) / b
     cos3 = sigma * np.sqrt(np.clip(1.0 - sin3**2, 0.0, None))
     th3 = unwrap(np.arctan2(sin3, cos3))
     # a sinθ2 + b sinθ3 = e differentiated once and twice.
-    w3 = -a * w2 * np.cos(th2) / (b * cos3)
-    al3 = (a * w2**2 * np.sin(th2) - a * al2 * np.cos(th2) + b * w3**2 * sin3) / (b * cos3)
-    A = np.zeros(th2.shape + (2,))
-    B = a[..., None] * unit(th2)
-    C = B + b[..., None] * unit(th3)
-    vB = a[..., None] * w2[..., None] * perp(th2)
-    aB = a[..., None] * (al2[..., None] * perp(th2) - (w2**2)[..., None] * unit(th2))
-    vC = vB + b[..., None] * w3[..., None] * perp(th3)
-    aC = aB + b[..., None] * (al3[..., None] * perp(th3) - (w3**2)[..., None] * unit(th3))
+    w3 = -a * w2 * c2 / (b * cos3)
+    al3 = (a * w2**2 * s2 - a * al2 * c2 + b * w3**2 * sin3) / (b * cos3)
+    joints = tuple(np.zeros(th2.shape + (3, 2)) for _ in range(3))
+    _tip(joints, 1, a, (c2, s2), w2, al2)
+    _tip(joints, 2, b, (np.cos(th3), np.sin(th3)), w3, al3, base=1)
     return RigidMotion(
         topology=topology("slider_crank"),
         time=motion.time,
@@ -371,9 +365,9 @@ def slider_crank(
         link_angle=np.stack([th2, th3], axis=-1),
         link_angular_velocity=np.stack([w2, w3], axis=-1),
         link_angular_acceleration=np.stack([al2, al3], axis=-1),
-        joint_position=np.stack([A, B, C], axis=2),
-        joint_velocity=np.stack([A, vB, vC], axis=2),
-        joint_acceleration=np.stack([A, aB, aC], axis=2),
+        joint_position=joints[0],
+        joint_velocity=joints[1],
+        joint_acceleration=joints[2],
         singular=np.zeros(th2.shape, bool),
     )
 
@@ -393,21 +387,37 @@ def single_link(length: np.ndarray, motion: InputMotion) -> RigidMotion:
     RigidMotion
         Positions (m), velocities and accelerations of the link, its joints and centre of mass.
     """
-    L = np.asarray(length, float)[:, None, None]
+    L = np.asarray(length, float)[:, None]
     th, w, al = motion.angle, motion.velocity, motion.acceleration
-    A = np.zeros(th.shape + (2,))
-    B = L * unit(th)
-    vB = L * w[..., None] * perp(th)
-    aB = L * (al[..., None] * perp(th) - (w**2)[..., None] * unit(th))
+    joints = tuple(np.zeros(th.shape + (2, 2)) for _ in range(3))
+    _tip(joints, 1, L, (np.cos(th), np.sin(th)), w, al)
     return RigidMotion(
         topology=topology("single_link"),
         time=motion.time,
-        lengths=L[:, :, 0],
+        lengths=L,
         link_angle=th[..., None],
         link_angular_velocity=w[..., None],
         link_angular_acceleration=al[..., None],
-        joint_position=np.stack([A, B], axis=2),
-        joint_velocity=np.stack([A, vB], axis=2),
-        joint_acceleration=np.stack([A, aB], axis=2),
+        joint_position=joints[0],
+        joint_velocity=joints[1],
+        joint_acceleration=joints[2],
         singular=np.zeros(th.shape, bool),
     )
+
+
+def _tip(joints: tuple, tip: int, length: np.ndarray, trig: tuple, w: np.ndarray,
+         al: np.ndarray, base: int | None = None) -> None:
+    """Write the motion of joint ``tip`` at ``length`` (case, 1) along a link from joint
+    ``base`` (None: from the ground pivot at the origin) into ``joints`` (position, velocity,
+    acceleration, each (case, step, joint, 2)): base + l e, + l ω e⊥, + l (α e⊥ − ω² e), with
+    the link's (cos θ, sin θ) ``trig``, component by component (the bits of the vector
+    expressions, a zero's sign included: nothing is added to a tip on the ground pivot)."""
+    c, s = trig
+    terms = (length * c, length * s), (length * w * -s, length * w * c), (
+        length * (al * -s - w * w * c), length * (al * c - w * w * s))
+    for out, (x, y) in zip(joints, terms):
+        if base is None:
+            out[:, :, tip, 0], out[:, :, tip, 1] = x, y
+        else:
+            np.add(out[:, :, base, 0], x, out=out[:, :, tip, 0])
+            np.add(out[:, :, base, 1], y, out=out[:, :, tip, 1])
