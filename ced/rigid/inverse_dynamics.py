@@ -471,16 +471,21 @@ def _solve(data, inertia, rows, cols, starts, x, ratio):
     """Assemble and solve, :data:`_CHUNK` steps at a time, every (case, step) system."""
     ncase, nstep, n = x.shape
     centre = np.empty((n // 3, 2))
+    # Zeroed once: every step writes the same entries (the tables'), the others stay zero.
+    # A chunk of the full size and one for the steps left over, so that solve_blocks is
+    # always called on whole C-contiguous arrays (one signature).
+    full = (np.zeros((_CHUNK, n, n)), np.empty((_CHUNK, n)), np.empty((_CHUNK, n)),
+            np.empty(_CHUNK))
+    left = nstep % _CHUNK
+    tail = (np.zeros((left, n, n)), np.empty((left, n)), np.empty((left, n)), np.empty(left))
     for c in range(ncase):
         for s0 in range(0, nstep, _CHUNK):
-            m = min(_CHUNK, nstep - s0)
-            A, b = np.zeros((m, n, n)), np.empty((m, n))
-            xs, rs = np.empty((m, n)), np.empty(m)
-            for k in range(m):
+            A, b, xs, rs = full if s0 + _CHUNK <= nstep else tail
+            for k in range(A.shape[0]):
                 _assemble(data, inertia, c, s0 + k, centre, A[k], b[k])
             solve_blocks(A, b, xs, rs, rows, cols, starts)
-            x[c, s0:s0 + m] = xs
-            ratio[c, s0:s0 + m] = rs
+            x[c, s0:s0 + A.shape[0]] = xs
+            ratio[c, s0:s0 + A.shape[0]] = rs
 
 
 def kinetic_energy_rate(motion: RigidMotion, bodies: BodyProperties, gravity=(0.0, 0.0)):

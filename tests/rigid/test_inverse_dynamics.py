@@ -215,18 +215,19 @@ def _assert_same_bits(a, b):
             assert np.array_equal(x, y), name
 
 
-@pytest.mark.parametrize("inertia", [True, False])
-def test_compiled_assembly_is_the_numpy_one_bit_for_bit(monkeypatch, inertia):
+@pytest.mark.parametrize("inertia, steps", [(True, 101), (False, 101), (True, 64), (True, 30)])
+def test_compiled_assembly_is_the_numpy_one_bit_for_bit(monkeypatch, inertia, steps):
     """The compiled loop does the arithmetic of the numpy assembly operation for operation
     (no fastmath) and solves with the same LU: the same bits, for built-in mechanisms (centres
     at mid-length, a slider parallel to x, a change point) and linkages of dyads (centres off
-    the links' axes, point masses, slider guides at an angle, RPR sleeves)."""
+    the links' axes, point masses, slider guides at an angle, RPR sleeves); steps that fill
+    the compiled loop's chunks exactly, leave some over, or fill none."""
     from ced.response.batch import make_batch
     from tests.rigid.test_dyads import MECHANISMS, _scene
 
-    parallelogram = _four_bar(0.4, 0.15, 0.4, 0.15, 1.0, steps=101)
+    parallelogram = _four_bar(0.4, 0.15, 0.4, 0.15, 1.0, steps=steps)
     slider = kin.slider_crank([0.1], [0.3], [0.02], kin.input_motion(
-        np.linspace(0, 0.2, 101)[None], [30.0], [0.3]), [1.0])
+        np.linspace(0, 0.2, steps)[None], [30.0], [0.3]), [1.0])
     for motion, bodies in ((parallelogram, _bodies([0.15, 0.4, 0.15])),
                            (slider, _bodies([0.1, 0.3], point=(0.0, 0.05, 0.08), slider=0.3))):
         _assert_same_bits(*_both_paths(monkeypatch, motion, bodies, GRAVITY, inertia))
