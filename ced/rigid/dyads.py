@@ -170,7 +170,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     known: dict[str, tuple] = {
         name: tuple(x[:, :, j] for x in joint_motion) for j, name in enumerate(topo.joint_names)}
     placed = set(first["ground"])
-    for name in first["ground"]:
+    for name in placed & set(known):
         known[name][0][...] = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
     angles: dict[str, tuple] = {}
     trig: dict[str, tuple] = {}  # (cos θ, sin θ) of every link placed: computed once
