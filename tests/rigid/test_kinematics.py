@@ -150,3 +150,21 @@ def test_compiled_unwrap_is_numpys_bit_for_bit():
         expected, got = np.unwrap(p, axis=1), kin.unwrap(p)
         assert np.array_equal(got, expected, equal_nan=True)
         assert np.array_equal(np.signbit(got), np.signbit(expected))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+def test_branches_meet_decides_as_the_exact_gap():
+    """The remainder-wrapped gap decides as numpy's exact |angle(exp(i d))| < 0.01, also for
+    minima at the threshold to the last bit, at ±2πm from it, and for NaN, inf and huge d."""
+    from ced.rigid.kinematics import _branches_meet
+
+    rng = np.random.default_rng(5)
+    near = [1e-2, -1e-2, np.nextafter(1e-2, 0), np.nextafter(1e-2, 1), 1e-2 + 2e-9,
+            1e-2 - 2e-9, 5e-3, 0.0]
+    odd = [np.nan, 1e6, -np.inf, np.pi, -np.pi]
+    for _ in range(300):
+        d = rng.uniform(-20, 20, (4, int(rng.integers(3, 40))))
+        d[0, 0] = 2 * np.pi * rng.integers(-3, 4) + rng.choice(near)
+        d[1, -1] = rng.choice(odd)
+        exact = np.abs(np.angle(np.exp(1j * d))).min(axis=1) < 1e-2
+        assert np.array_equal(_branches_meet(d), exact)
