@@ -13,7 +13,7 @@ import numpy as np
 
 from ..problem.linkage import linkage_topology
 from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, fill_singular, perp,
-                         track_branch, unit)
+                         track_branch, unit, unwrap)
 
 __all__ = ["linkage", "dyad_sines", "point_motion"]
 
@@ -45,44 +45,62 @@ def point_motion(base, angle, velocity, acceleration, local):
     tuple of ndarray, each (case, step, 2)
         Position, velocity and acceleration of the point.
     """
-    x, y = local[:, None, 0, None], local[:, None, 1, None]
-    c, s = np.cos(angle), np.sin(angle)  # once: unit(θ) and perp(θ) share them
-    r = x * np.stack([c, s], axis=-1) + y * np.stack([-s, c], axis=-1)  # R(θ) local, global
-    r_perp = np.stack([-r[..., 1], r[..., 0]], axis=-1)
-    w, al = velocity[..., None], acceleration[..., None]
-    return (base[0] + r, base[1] + w * r_perp, base[2] + al * r_perp - w * w * r)
+    out = tuple(np.empty(np.shape(angle) + (2,)) for _ in range(3))
+    _point_motion(base, (np.cos(angle), np.sin(angle)), velocity, acceleration, local, out)
+    return out
+
+
+def _point_motion(base, trig, velocity, acceleration, local, out) -> None:
+    """:func:`point_motion` into ``out`` (three (case, step, 2) arrays), from the frame's
+    (cos θ, sin θ) ``trig``: r = R(θ) local, then the origin's motion plus r, ω r⊥ and
+    α r⊥ − ω² r, component by component (no (case, step, 2) temporaries)."""
+    x, y = local[:, 0, None], local[:, 1, None]
+    c, s = trig
+    rx, ry = x * c + y * -s, x * s + y * c
+    w, al = velocity, acceleration
+    ww = w * w
+    np.add(base[0][..., 0], rx, out=out[0][..., 0])
+    np.add(base[0][..., 1], ry, out=out[0][..., 1])
+    np.add(base[1][..., 0], w * -ry, out=out[1][..., 0])
+    np.add(base[1][..., 1], w * rx, out=out[1][..., 1])
+    np.subtract(base[2][..., 0] + al * -ry, ww * rx, out=out[2][..., 0])
+    np.subtract(base[2][..., 1] + al * rx, ww * ry, out=out[2][..., 1])
 
 
 def _rrr(P, Q, l1, l2, branch):
-    """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M."""
-    d = Q[0] - P[0]
-    dist = np.hypot(d[..., 0], d[..., 1])
-    psi = np.arctan2(d[..., 1], d[..., 0])
+    """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M, and the
+    (cos, sin) of both angles."""
+    dx, dy = Q[0][..., 0] - P[0][..., 0], Q[0][..., 1] - P[0][..., 1]
+    dist = np.hypot(dx, dy)
+    psi = np.arctan2(dy, dx)
     cos_beta = np.clip((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist), -1.0, 1.0)
     beta = np.arccos(cos_beta)
     candidates = np.stack([psi + beta, psi - beta])  # M left / right of P→Q
     start = np.where(branch > 0, 0, 1)
     # A dyad that assembles over the whole motion has its two solutions meet only where the
     # loop passes a change point: there the one continuing straight through is kept.
-    th1 = np.unwrap(track_branch(candidates, start, np.ones(len(l1), bool)), axis=1)
-    e1 = unit(th1)
-    M = P[0] + l1[..., None] * e1
-    diff = M - Q[0]
-    th2 = np.unwrap(np.arctan2(diff[..., 1], diff[..., 0]), axis=1)
+    th1 = unwrap(track_branch(candidates, start, np.ones(len(l1), bool)))
+    c1, s1 = np.cos(th1), np.sin(th1)
+    # M − Q with M = P + l1 e1.
+    th2 = unwrap(np.arctan2(P[0][..., 1] + l1 * s1 - Q[0][..., 1],
+                            P[0][..., 0] + l1 * c1 - Q[0][..., 0]))
     # l1 ω1 e⊥1 − l2 ω2 e⊥2 = vQ − vP, dotted with e2 and e1 (e⊥i·ej = sin(θj − θi)).
     s21 = np.sin(th2 - th1)
     singular = np.abs(s21) < SINGULAR_SIN
     safe = np.where(singular, 1.0, s21)
-    e2 = unit(th2)
-    dv = Q[1] - P[1]
-    w1 = _dot(dv, e2) / (l1 * safe)
-    w2 = _dot(dv, e1) / (l2 * safe)
+    c2, s2 = np.cos(th2), np.sin(th2)
+    dvx, dvy = Q[1][..., 0] - P[1][..., 0], Q[1][..., 1] - P[1][..., 1]
+    w1 = (dvx * c2 + dvy * s2) / (l1 * safe)
+    w2 = (dvx * c1 + dvy * s1) / (l2 * safe)
     w1, w2 = fill_singular(w1, singular), fill_singular(w2, singular)
-    da = Q[2] - P[2] + (l1 * w1 * w1)[..., None] * e1 - (l2 * w2 * w2)[..., None] * e2
-    al1 = _dot(da, e2) / (l1 * safe)
-    al2 = _dot(da, e1) / (l2 * safe)
+    # aQ − aP + l1 ω1² e1 − l2 ω2² e2, dotted with e2 and e1.
+    k1, k2 = l1 * w1 * w1, l2 * w2 * w2
+    dax = Q[2][..., 0] - P[2][..., 0] + k1 * c1 - k2 * c2
+    day = Q[2][..., 1] - P[2][..., 1] + k1 * s1 - k2 * s2
+    al1 = (dax * c2 + day * s2) / (l1 * safe)
+    al2 = (dax * c1 + day * s1) / (l2 * safe)
     al1, al2 = fill_singular(al1, singular), fill_singular(al2, singular)
-    return (th1, w1, al1), (th2, w2, al2), singular
+    return (th1, w1, al1), (th2, w2, al2), singular, (c1, s1), (c2, s2)
 
 
 def _rrp(P, length, guide_angle, guide_point, branch):
@@ -93,7 +111,7 @@ def _rrp(P, length, guide_angle, guide_point, branch):
     # n·(M − P) = −h with M − P = l e1: sin(θ1 − φ) = −h/l, cos(θ1 − φ) = ±√(1 − sin²).
     sin_rel = -height / length
     cos_rel = branch * np.sqrt(np.clip(1.0 - sin_rel**2, 0.0, None))
-    th = np.unwrap(np.arctan2(sin_rel, cos_rel), axis=1) + phi
+    th = unwrap(np.arctan2(sin_rel, cos_rel)) + phi
     # n·vM = 0 and n·aM = 0 on a fixed guide (n·e⊥1 = cos(θ1 − φ), n·e1 = sin(θ1 − φ)).
     w = -_dot(P[1], n) / (length * cos_rel)
     al = (-_dot(P[2], n) + length * w * w * sin_rel) / (length * cos_rel)
@@ -101,7 +119,8 @@ def _rrp(P, length, guide_angle, guide_point, branch):
 
 
 def _rpr(P, Q, offset):
-    """Place an RPR dyad: the guide bar's angle, rate, acceleration and the sleeve's slide.
+    """Place an RPR dyad: the guide bar's angle, rate, acceleration, the sleeve's slide and
+    the (cos, sin) of the bar's angle.
 
     The bar turns about P; the sleeve turns about Q and slides along it, Q at the signed
     distance ``offset`` e to the left of the bar's line: Q − P = s e1 + e e⊥1 (e1 along the
@@ -114,14 +133,14 @@ def _rpr(P, Q, offset):
     dist2 = _dot(d, d)
     e = offset[:, None]
     s = np.sqrt(np.clip(dist2 - e * e, 0.0, None))
-    th = np.unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s), axis=1)
+    th = unwrap(np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(e, s))
     e1, n1 = unit(th), perp(th)
     dv, da = Q[1] - P[1], Q[2] - P[2]
     w = _dot(dv, n1) / s
     ds = _dot(dv, e1) + e * w
     al = (_dot(da, n1) - 2.0 * ds * w + e * w * w) / s
     dds = _dot(da, e1) + e * al + s * w * w
-    return (th, w, al), (s, ds, dds)
+    return (th, w, al), (s, ds, dds), (e1[..., 0], e1[..., 1])
 
 
 def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
@@ -146,12 +165,15 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     first = descriptions[0]
     topo = linkage_topology(first)
     shape = motion.angle.shape
-    zero = np.zeros(shape + (2,))
-    known: dict[str, tuple] = {}
-    for name in first["ground"]:
-        position = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
-        known[name] = (np.broadcast_to(position, shape + (2,)).copy(), zero, zero)
+    # Every joint's motion is written in place into the arrays of the result.
+    joint_motion = tuple(np.zeros(shape + (len(topo.joint_names), 2)) for _ in range(3))
+    known: dict[str, tuple] = {
+        name: tuple(x[:, :, j] for x in joint_motion) for j, name in enumerate(topo.joint_names)}
+    placed = set(first["ground"])
+    for name in placed & set(known):
+        known[name][0][...] = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
     angles: dict[str, tuple] = {}
+    trig: dict[str, tuple] = {}  # (cos θ, sin θ) of every link placed: computed once
     lengths: dict[str, np.ndarray] = {}
     guide_angle: dict[str, np.ndarray] = {}
     slide: dict[str, tuple] = {}
@@ -168,9 +190,12 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         for name, point in first.get("points", {}).items():
             if point["link"] == link:
                 local[name] = _column(descriptions, lambda d: d["points"][name]["at"])
+        if link not in trig:
+            trig[link] = (np.cos(angles[link][0]), np.sin(angles[link][0]))
         for name, xy in local.items():
-            if name not in known:
-                known[name] = point_motion(start, *angles[link], xy)
+            if name not in placed and name in known:
+                _point_motion(start, trig[link], *angles[link][1:], xy, known[name])
+                placed.add(name)
 
     place(inp["link"])
     for k, dyad in enumerate(first["dyads"]):
@@ -179,7 +204,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         lengths[l1] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][0])
         if dyad["kind"] == "RPR":
             offset = _column(descriptions, lambda d: d["dyads"][k]["offset"])
-            angles[l1], slide[l2] = _rpr(P, known[dyad["joints"][2]], offset)
+            angles[l1], slide[l2], trig[l1] = _rpr(P, known[dyad["joints"][2]], offset)
             place(l1)
             continue
         branch = _column(descriptions, lambda d: 1.0 if d["dyads"][k]["branch"] == "open"
@@ -187,8 +212,8 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         if dyad["kind"] == "RRR":
             Q = known[dyad["joints"][2]]
             lengths[l2] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][1])
-            angles[l1], angles[l2], bad = _rrr(P, Q, lengths[l1][:, None],
-                                               lengths[l2][:, None], branch[:, 0])
+            angles[l1], angles[l2], bad, trig[l1], trig[l2] = _rrr(
+                P, Q, lengths[l1][:, None], lengths[l2][:, None], branch[:, 0])
             singular |= bad
             place(l1)
             place(l2)
@@ -199,7 +224,6 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
             guide_angle[l2] = phi
             place(l1)
     names = topo.link_names
-    joints = [known[j] for j in topo.joint_names]
     return RigidMotion(
         topology=topo,
         time=motion.time,
@@ -207,9 +231,9 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         link_angle=np.stack([angles[n][0] for n in names], axis=-1),
         link_angular_velocity=np.stack([angles[n][1] for n in names], axis=-1),
         link_angular_acceleration=np.stack([angles[n][2] for n in names], axis=-1),
-        joint_position=np.stack([j[0] for j in joints], axis=2),
-        joint_velocity=np.stack([j[1] for j in joints], axis=2),
-        joint_acceleration=np.stack([j[2] for j in joints], axis=2),
+        joint_position=joint_motion[0],
+        joint_velocity=joint_motion[1],
+        joint_acceleration=joint_motion[2],
         singular=singular,
         guide_angle=guide_angle,
         slide=slide or None,

@@ -133,3 +133,38 @@ def test_link_point_matches_joints():
     for order, arr in enumerate((r.joint_position, r.joint_velocity, r.joint_acceleration)):
         assert np.allclose(r.link_point("coupler", 0.45, order), arr[:, :, 2])
         assert np.allclose(r.link_point("rocker", 0.35, order), arr[:, :, 2])
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+def test_compiled_unwrap_is_numpys_bit_for_bit():
+    """Random walks with jumps of any size, the wrapped output of arctan2, jumps of exactly
+    ±π and just past it, signed zeros, NaN and inf, a single step and none."""
+    rng = np.random.default_rng(3)
+    pi = np.pi
+    for p in (rng.uniform(-20, 20, (7, 500)), np.cumsum(rng.uniform(-4, 4, (5, 300)), axis=1),
+              np.angle(np.exp(1j * np.cumsum(rng.uniform(-0.5, 0.5, (4, 1000)), axis=1))),
+              np.array([[0.0, pi, 0.0, -pi, 0.0, 2 * pi, -0.0, np.nan, 1.0, 3 * pi, -3 * pi,
+                         np.inf, 0.0]]),
+              np.array([[-0.0, -0.0, pi, 2 * pi, 0.0, pi + 1e-16, 0.0, -(pi + 4e-16), 0.0]]),
+              np.zeros((3, 1)), np.zeros((2, 0))):
+        expected, got = np.unwrap(p, axis=1), kin.unwrap(p)
+        assert np.array_equal(got, expected, equal_nan=True)
+        assert np.array_equal(np.signbit(got), np.signbit(expected))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+def test_branches_meet_decides_as_the_exact_gap():
+    """The remainder-wrapped gap decides as numpy's exact |angle(exp(i d))| < 0.01, also for
+    minima at the threshold to the last bit, at ±2πm from it, and for NaN, inf and huge d."""
+    from ced.rigid.kinematics import _branches_meet
+
+    rng = np.random.default_rng(5)
+    near = [1e-2, -1e-2, np.nextafter(1e-2, 0), np.nextafter(1e-2, 1), 1e-2 + 2e-9,
+            1e-2 - 2e-9, 5e-3, 0.0]
+    odd = [np.nan, 1e6, -np.inf, np.pi, -np.pi]
+    for _ in range(300):
+        d = rng.uniform(-20, 20, (4, int(rng.integers(3, 40))))
+        d[0, 0] = 2 * np.pi * rng.integers(-3, 4) + rng.choice(near)
+        d[1, -1] = rng.choice(odd)
+        exact = np.abs(np.angle(np.exp(1j * d))).min(axis=1) < 1e-2
+        assert np.array_equal(_branches_meet(d), exact)
