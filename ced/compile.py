@@ -11,20 +11,20 @@ at install.
 Every kernel is called with one type signature whatever the scene (checked by
 ``tests/test_compile.py`` on the default study's scene, a start transient, the other
 integrators, formulations and mechanisms): one small periodic scene solved by the spectral
-solver with its error estimate reaches all of them but the march on dense step matrices,
-which the same scene with one flexible link reaches.
+solver with its error estimate reaches all of them but those on sparse step matrices, which
+the same scene with every FE DOF reaches.
 """
 from __future__ import annotations
 
 import importlib
 import pkgutil
 
-__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_DENSE"]
+__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_SPARSE"]
 
 #: Solved by :func:`compile_kernels`: the default study's base scene (spectral periodic state,
 #: Craig–Bampton links, Floquet analysis by shooting, forced-resonance check, modal analysis,
-#: error estimate, 128 steps per revolution: the period's terms evaluated at every step) on the
-#: reference four-bar.
+#: error estimate) on the reference four-bar; 256 steps per revolution so that the period's
+#: terms are sampled and interpolated (:mod:`ced.response.period_terms`).
 WARM_UP_SCENE = {
     "mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                   "rocker": 0.35},
@@ -33,18 +33,17 @@ WARM_UP_SCENE = {
     "effects": ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening"],
     "discretization": {"formulation": "euler_bernoulli", "elements_per_link": 4,
                        "modes_per_link": 2},
-    "time": {"revolutions": 1, "steps_per_revolution": 128, "start": "periodic",
+    "time": {"revolutions": 1, "steps_per_revolution": 256, "start": "periodic",
              "periodic_solver": "spectral", "collocation_points": 8},
     "modal": {"modes": 1, "angles": 2},
     "outputs": {"stations": 3},
 }
-#: The same with one flexible link, whose step matrices are dense (the kernels for dense
-#: matrices; two flexible links have sparse ones, :mod:`ced.response.step_pattern`), and 256
-#: steps per revolution, so that the period's terms are sampled and interpolated
-#: (:mod:`ced.response.period_terms`).
-WARM_UP_DENSE = {**WARM_UP_SCENE, "links": {"crank": {"flexible": False},
-                                             "rocker": {"flexible": False}},
-                 "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 256}}
+#: The same with every FE DOF, whose step matrices are sparse (the kernels on packed terms,
+#: :mod:`ced.response.step_pattern`), at 128 steps per revolution: the terms evaluated at every
+#: step.
+WARM_UP_SPARSE = {**WARM_UP_SCENE,
+                  "discretization": {**WARM_UP_SCENE["discretization"], "modes_per_link": 0},
+                  "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 128}}
 
 
 def kernels() -> dict[str, object]:
@@ -84,5 +83,5 @@ def compile_kernels() -> dict[str, int]:
     from .simulation.simulate import simulate
 
     simulate(WARM_UP_SCENE)
-    simulate(WARM_UP_DENSE)
+    simulate(WARM_UP_SPARSE)
     return {name: len(kernel.signatures) for name, kernel in kernels().items()}

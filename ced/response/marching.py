@@ -46,27 +46,43 @@ class Marcher:
         self.scheme, self.terms, self.h = scheme, terms, np.ascontiguousarray(h, dtype=float)
         self.ok = np.ones(terms.force.shape[0], bool)
         if self.compiled:
-            self._allocate(packed=terms.order is not None)
+            ncase, period = terms.force.shape[:2]
+            if terms.order is not None:
+                self._lu = np.empty((ncase, period, len(terms.order.lu_idx)))
+                self._factored = np.zeros((ncase, period), bool)
+            self._set_dense(np.full(ncase, terms.order is None))
 
     @property
     def packed(self) -> bool:
-        """The compiled march runs on the packed terms (sparse step matrices)."""
-        return self.compiled and self._packed
+        """The compiled march runs on the packed terms (sparse step matrices) for some cases."""
+        return self.compiled and self.terms.order is not None and not self.dense_cases.all()
 
-    def _allocate(self, packed: bool) -> None:
-        """Factor storage for the packed or the dense kernel (all steps to be factorized)."""
+    @property
+    def dense_cases(self) -> np.ndarray:
+        """(case,) bool: the cases marched on dense matrices with pivoting (all of them where
+        the step matrices are not sparse; else those a step matrix of which the LU without
+        pivoting refused)."""
+        return self._dense
+
+    def _set_dense(self, dense: np.ndarray) -> None:
+        """Dense terms and factor storage for the cases ``dense`` (all steps to be
+        factorized again)."""
         terms, n = self.terms, self.terms.n
-        ncase, period = terms.force.shape[:2]
-        self._packed = packed
-        self._factored = np.zeros((ncase, period), bool)
-        if packed:
-            self._lu = np.empty((ncase, period, len(terms.order.lu_idx)))
-            self._matrices = tuple(getattr(terms, name) for name in ("mass", "damping",
-                                                                       "stiffness"))
-            return
-        self._lu = np.empty((ncase, period, n, n))
-        self._piv = np.empty((ncase, period, n), np.int64)
-        self._matrices = tuple(terms.dense(name) for name in ("mass", "damping", "stiffness"))
+        period = terms.force.shape[1]
+        self._dense = dense
+        if dense.all() and terms.order is None:  # the terms themselves: no copy
+            cases = slice(None)
+            self._dense_matrices = tuple(getattr(terms, k) for k in ("mass", "damping",
+                                                                     "stiffness"))
+        else:
+            cases = np.flatnonzero(dense)
+            self._dense_matrices = tuple(terms.dense(k, cases=cases)
+                                         for k in ("mass", "damping", "stiffness"))
+        self._dense_index = cases
+        size = len(terms.force[cases])
+        self._dense_lu = np.empty((size, period, n, n))
+        self._piv = np.empty((size, period, n), np.int64)
+        self._dense_factored = np.zeros((size, period), bool)
 
     def columns(self, r: int):
         """The terms with F in column 0 of r columns (``terms`` of the numpy loop)."""
@@ -96,29 +112,24 @@ class Marcher:
             raise ValueError("the compiled march needs the mass (effect elastic_inertia)")
         q, v, acc, a = (np.array(x, dtype=float, order="C", copy=True)
                         for x in (state.q, state.v, state.acc, state.a))
-        M, C, K = self._matrices
-        damped = C is not None
         ok = self.ok.copy()
-        if self._packed:
+        if self.packed:
             refused = np.zeros_like(ok)
-            o = self.terms.order
-            absent = np.empty((K.shape[0], 0, K.shape[2]))
-            newmark_march_packed(M, C if damped else absent, K, self.terms.force, damped,
+            ok_packed = ok & ~self._dense  # the dense cases are not marched here
+            o, (M, C, K) = self.terms.order, (getattr(self.terms, k) for k in
+                                              ("mass", "damping", "stiffness"))
+            newmark_march_packed(M, _or_absent(C, K), K, self.terms.force, C is not None,
                                  self.h, s.alpha_m, s.alpha_f, s.beta, s.gamma, n_steps, q, v,
-                                 acc, a, record_every, record, self._lu, self._factored, ok,
-                                 refused, o.perm, o.rows_ptr, o.rows_idx, o.lu_ptr, o.lu_idx,
-                                 o.diagonal, o.lu_source)
+                                 acc, a, record_every, record, self._lu, self._factored,
+                                 ok_packed, refused, o.perm, o.rows_ptr, o.rows_idx, o.lu_ptr,
+                                 o.lu_idx, o.diagonal, o.lu_source)
             if refused.any():
-                # A step matrix far from positive definite (an indefinite stiffness): the
-                # whole batch is marched again, densely with partial pivoting.
-                self._allocate(packed=False)
-                return self.march(state, n_steps, record_every)
-        else:
-            empty = np.empty((K.shape[0], 0) + K.shape[2:])
-            newmark_march(empty if M is None else M, C if damped else empty, K,
-                          self.terms.force, damped, self.h, s.alpha_m, s.alpha_f, s.beta,
-                          s.gamma, n_steps, q, v, acc, a, record_every, record, self._lu,
-                          self._piv, self._factored, ok)
+                # A step matrix far from positive definite (a buckled link's indefinite
+                # stiffness): that case is marched from the start densely, with pivoting.
+                self._set_dense(self._dense | refused)
+            ok = np.where(self._dense, ok, ok_packed)
+        if self._dense.any():
+            ok = self._march_dense(state, n_steps, record_every, q, v, acc, a, record, ok)
         self.ok = ok
         failed = ~self.ok
         if failed.any():
@@ -128,3 +139,28 @@ class Marcher:
                     f"Singular matrix: the step matrix of case {int(np.argmax(singular))}")
             record[failed] = np.nan  # diverged: the march stopped where q left the floats
         return State(q, v, acc, a), record
+
+    def _march_dense(self, state, n_steps, record_every, q, v, acc, a, record, ok):
+        """March the dense cases from ``state`` into q, v, acc, a, record (in place); their
+        ``ok`` updated."""
+        s, cases = self.scheme, self._dense_index
+        M, C, K = self._dense_matrices
+        if isinstance(cases, slice):  # every case, on the terms themselves
+            parts = (q, v, acc, a, record, ok, self.h, self.terms.force)
+        else:
+            parts = tuple(np.ascontiguousarray(x[cases]) for x in (
+                state.q, state.v, state.acc, state.a, record, ok, self.h, self.terms.force))
+        qd, vd, accd, ad, recd, okd, h, F = parts
+        newmark_march(_or_absent(M, K), _or_absent(C, K), K, F, C is not None, h, s.alpha_m,
+                      s.alpha_f, s.beta, s.gamma, n_steps, qd, vd, accd, ad, record_every,
+                      recd, self._dense_lu, self._piv, self._dense_factored, okd)
+        if not isinstance(cases, slice):
+            for whole, part in zip((q, v, acc, a, record, ok), parts):
+                whole[cases] = part
+        return ok
+
+
+def _or_absent(x: np.ndarray | None, like: np.ndarray) -> np.ndarray:
+    """``x``, or an empty array of ``like``'s kind standing for an absent term (the kernels
+    take a flag beside it)."""
+    return x if x is not None else np.empty((like.shape[0], 0) + like.shape[2:])

@@ -21,8 +21,8 @@ every factorization checks it (each pivot positive against its diagonal entry,
 pivoting instead (:class:`ced.response.marching.Marcher`), so that an indefinite S (a link
 buckling under its axial load) is solved as before.
 
-Where the pattern fills more than :data:`MAX_FILL` of the matrix (one flexible link reduced
-to a few dense modes) the dense kernels are as fast and are kept.
+Where the pattern fills more than :data:`MAX_FILL` of the matrix (Craig–Bampton links, whose
+modes are dense blocks) the dense kernels are kept.
 """
 from __future__ import annotations
 
@@ -36,11 +36,12 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 __all__ = ["StepOrder", "nonzero_pattern", "step_order", "pack", "unpack", "packed_factor",
            "packed_solve", "MAX_FILL", "MIN_PIVOT_RATIO"]
 
-#: Largest fraction of nonzeros (factors' pattern over n²) for which the sparse path is taken:
-#: above it the indexed loops gain little over the dense ones. Measured: the default study's
-#: Craig–Bampton four-bars (two flexible links, 4 modes each, 20 unknowns) fill 0.595, and their
-#: shooting march took 0.176 against 0.232 s per 100 cases.
-MAX_FILL = 0.75
+#: Largest fraction of nonzeros (factors' pattern over n²) for which the packed path is taken.
+#: Measured on the default study's Craig–Bampton four-bars (two links of 4 modes, 20 unknowns,
+#: 60 % nonzero): packed, a batch of crank-rockers took 8 % less, but a change-point chunk
+#: (its terms packed at every step, many buckled cases marched again densely) 5 % more; full
+#: FE models (17–23 %) gain 1.6–3× (docs/performance.md).
+MAX_FILL = 0.5
 #: Smallest u_kk / s_kk (the pivot against the step matrix's own diagonal entry) accepted
 #: without pivoting: positive and not vanishing, as for a symmetric positive definite S (for
 #: which 0 < u_kk ≤ s_kk).

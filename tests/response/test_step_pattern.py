@@ -117,8 +117,8 @@ def _sparse_system(rng, ncase, period, damped, indefinite_steps=()):
     n = len(pattern)
     M = _spd(rng, pattern, (ncase, period))
     K = 1e4 * _spd(rng, pattern, (ncase, period))
-    for j in indefinite_steps:  # a softening stiffness that makes the step matrix indefinite
-        K[:, j] *= -1e5
+    for j in indefinite_steps:  # a softening stiffness that makes case 1's step indefinite
+        K[1, j] *= -1e5
     C = 0.1 * rng.standard_normal((ncase, period, n, n)) * pattern if damped else None
     F = rng.standard_normal((ncase, period, n))
     return PeriodTerms(mass=M, damping=C, stiffness=K, force=F,
@@ -132,9 +132,9 @@ def _sparse_system(rng, ncase, period, damped, indefinite_steps=()):
 @pytest.mark.parametrize("indefinite", [(), (2, 5)])
 def test_sparse_compiled_march_equals_numpy_march(scheme, damped, columns, indefinite):
     """On a linkage-like pattern the compiled march runs on the packed terms, ordered and
-    factorized without pivoting; a batch with an indefinite step matrix falls back to the
-    dense march with pivoting; both agree with the numpy loop (np.linalg.solve) to
-    round-off."""
+    factorized without pivoting; a case with an indefinite step matrix is marched densely
+    with pivoting, the others stay packed; all agree with the numpy loop (np.linalg.solve) to
+    round-off, and again when the factorizations are reused."""
     rng = np.random.default_rng(5)
     ncase, period, n_steps = 3, 7, 23
     terms = with_sparsity(_sparse_system(rng, ncase, period, damped, indefinite))
@@ -148,8 +148,9 @@ def test_sparse_compiled_march_equals_numpy_march(scheme, damped, columns, indef
     first = start(compiled.columns(columns), q0, v0)
     end_c, rec_c = compiled.march(first, n_steps, record_every=2)
     end_n, rec_n = reference.march(first, n_steps, record_every=2)
-    # An indefinite step matrix sends the batch to the dense march with pivoting.
-    assert compiled.packed == (not indefinite)
+    # An indefinite step matrix sends its case, and only it, to the dense march with pivoting.
+    assert compiled.packed
+    assert list(compiled.dense_cases) == [False, bool(indefinite), False]
     assert np.abs(rec_c - rec_n).max() <= 1e-11 * np.abs(rec_n).max()
     for x, y in zip(end_c[:4], end_n[:4]):
         assert np.allclose(x, y, rtol=1e-10, atol=1e-11 * np.abs(y).max())
