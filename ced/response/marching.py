@@ -4,8 +4,9 @@
 and the factorizations of its step matrices, so that every march over them — the shooting's
 one period with 3n + 1 columns, then the response over all revolutions — factorizes each
 step matrix once. The Newmark family runs in the compiled kernel
-(:func:`ced.response.kernels.newmark_march`, or :func:`ced.response.kernels.newmark_march_packed`
-where the terms are held packed on their sparsity, :mod:`ced.response.step_pattern`); Houbolt, or ``compiled=False``, runs the numpy
+(:func:`ced.response.kernels.newmark_march`, or
+:func:`ced.response.kernels.newmark_march_packed` where the terms are held packed on their
+sparsity, :mod:`ced.response.step_pattern`); Houbolt, or ``compiled=False``, runs the numpy
 loop :func:`ced.response.integrators.march`, which the kernel is tested against. The
 environment variable ``CED_KERNEL=numpy`` makes the numpy loop the default everywhere (to
 check a result against it, or where numba is unavailable for a platform).
