@@ -68,14 +68,35 @@ def lu_solve_columns(LU: np.ndarray, piv: np.ndarray, X: np.ndarray) -> None:
             X[i, s] *= inv
 
 
-@nb.njit(**_JIT)
+# The step's pieces shared by both marching kernels, inlined into them by numba (its IR, not
+# LLVM's calls): as called functions, LLVM contracted their loops differently for many columns
+# and the shot results moved by 3e-14; inlined, the kernels compile to the bits of the loops
+# written out (checked on the default study's chunks).
+_INLINE = dict(_JIT, inline="always")
+
+
+@nb.njit(**_INLINE)
+def _work_arrays(n, r):
+    """The step's right-hand side (then solution), q̂, v̂ and a_k, each (n, r): with many
+    columns (shooting) every inner loop runs along them."""
+    return np.empty((n, r)), np.empty((n, r)), np.empty((n, r)), np.empty((n, r))
+
+
+@nb.njit(**_INLINE)
+def _start_case(h, alpha_m, alpha_f, beta, gamma, q, record_every, record):
+    """The step matrix's coefficients (c_C, c_K, w) of a case with step h; q's column 0 is
+    written to the first record (with ``record_every`` > 0)."""
+    w = (1.0 - alpha_f) / (1.0 - alpha_m)
+    if record_every > 0:
+        for i in range(q.shape[0]):
+            record[0, i] = q[i, 0]
+    return w * gamma * h, w * beta * h * h, w
+
+
+@nb.njit(**_INLINE)
 def _predict(q, v, acc, a, h, alpha_m, alpha_f, beta, gamma, qh, vh, ak):
     """The step's predictors q̂, v̂ and the α-weighted acceleration a_k from the state (n, r)
-    (Arnold & Brüls 2007, :func:`ced.response.integrators.alpha_step`).
-
-    Used by :func:`newmark_march_packed`; :func:`newmark_march` keeps the same loops written
-    out: called from it, numba contracts them differently for many columns, which moved the
-    shot results of the default study's scenes by 3e-14 (measured)."""
+    (Arnold & Brüls 2007, :func:`ced.response.integrators.alpha_step`)."""
     n, r = q.shape
     for i in range(n):
         for s in range(r):
@@ -84,10 +105,11 @@ def _predict(q, v, acc, a, h, alpha_m, alpha_f, beta, gamma, qh, vh, ak):
             vh[i, s] = v[i, s] + h * ((1.0 - gamma) * a[i, s] + gamma * ak[i, s])
 
 
-@nb.njit(**_JIT)
-def _correct(x, qh, vh, ak, cC, cK, w, q, v, acc, a) -> bool:
-    """The new state from the step's solution x (the acceleration) and the predictors, in
-    place; False where column 0 of q is no longer finite."""
+@nb.njit(**_INLINE)
+def _correct(x, qh, vh, ak, cC, cK, w, q, v, acc, a, k, record_every, record) -> bool:
+    """The new state from step k's solution x (the acceleration) and the predictors, in
+    place, q's column 0 recorded after every ``record_every``-th step; False where column 0
+    of q is no longer finite."""
     n, r = q.shape
     finite = True
     for i in range(n):
@@ -99,6 +121,9 @@ def _correct(x, qh, vh, ak, cC, cK, w, q, v, acc, a) -> bool:
             a[i, s] = ak[i, s] + w * y
         if not np.isfinite(q[i, 0]):
             finite = False
+    if record_every > 0 and (k + 1) % record_every == 0:
+        for i in range(n):
+            record[(k + 1) // record_every, i] = q[i, 0]
     return finite
 
 
@@ -137,31 +162,18 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
     """
     ncase, P, n = K.shape[0], K.shape[1], K.shape[2]
     r = q.shape[2]
-    # Work arrays (n, r): with many columns (shooting) every inner loop runs along them.
-    rhs = np.empty((n, r))
-    qh = np.empty((n, r))
-    vh = np.empty((n, r))
-    ak = np.empty((n, r))
-    w = (1.0 - alpha_f) / (1.0 - alpha_m)
+    rhs, qh, vh, ak = _work_arrays(n, r)
     for c in range(ncase):
         hc = h[c]
-        cC = w * gamma * hc
-        cK = w * beta * hc * hc
-        if record_every > 0:
-            for i in range(n):
-                record[c, 0, i] = q[c, i, 0]
+        cC, cK, w = _start_case(hc, alpha_m, alpha_f, beta, gamma, q[c], record_every,
+                                record[c])
         for k in range(n_steps):
             if not ok[c]:
                 break
             j = (k + 1) % P
             Kj = K[c, j]
             qc, vc, accc, ac = q[c], v[c], acc[c], a[c]
-            for i in range(n):
-                for s in range(r):
-                    ak[i, s] = (alpha_f * accc[i, s] - alpha_m * ac[i, s]) / (1.0 - alpha_m)
-                    qh[i, s] = qc[i, s] + hc * vc[i, s] + hc * hc * (
-                        (0.5 - beta) * ac[i, s] + beta * ak[i, s])
-                    vh[i, s] = vc[i, s] + hc * ((1.0 - gamma) * ac[i, s] + gamma * ak[i, s])
+            _predict(qc, vc, accc, ac, hc, alpha_m, alpha_f, beta, gamma, qh, vh, ak)
             # rhs = F − K q̂ − C v̂
             if r == 1:
                 for i in range(n):
@@ -211,21 +223,9 @@ def newmark_march(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gamma, n_s
                 lu_solve(LUj, piv[c, j], rhs[:, 0])
             else:
                 lu_solve_columns(LUj, piv[c, j], rhs)
-            finite = True
-            for i in range(n):
-                for s in range(r):
-                    x = rhs[i, s]
-                    accc[i, s] = x
-                    qc[i, s] = qh[i, s] + cK * x
-                    vc[i, s] = vh[i, s] + cC * x
-                    ac[i, s] = ak[i, s] + w * x
-                if not np.isfinite(qc[i, 0]):
-                    finite = False
-            if not finite:
+            if not _correct(rhs, qh, vh, ak, cC, cK, w, qc, vc, accc, ac, k, record_every,
+                            record[c]):
                 ok[c] = False
-            if record_every > 0 and (k + 1) % record_every == 0:
-                for i in range(n):
-                    record[c, (k + 1) // record_every, i] = qc[i, 0]
 
 
 @nb.njit(**_JIT)
@@ -253,20 +253,12 @@ def newmark_march_packed(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gam
     """
     ncase, P = K.shape[0], K.shape[1]
     n, r = q.shape[1], q.shape[2]
-    rhs = np.empty((n, r))
-    qh = np.empty((n, r))
-    vh = np.empty((n, r))
-    ak = np.empty((n, r))
-    work = np.empty((n, r))
-    row = np.empty(n)
-    w = (1.0 - alpha_f) / (1.0 - alpha_m)
+    rhs, qh, vh, ak = _work_arrays(n, r)
+    work, row = np.empty((n, r)), np.empty(n)
     for c in range(ncase):
         hc = h[c]
-        cC = w * gamma * hc
-        cK = w * beta * hc * hc
-        if record_every > 0:
-            for i in range(n):
-                record[c, 0, i] = q[c, i, 0]
+        cC, cK, w = _start_case(hc, alpha_m, alpha_f, beta, gamma, q[c], record_every,
+                                record[c])
         for k in range(n_steps):
             if not ok[c]:
                 break
@@ -316,11 +308,9 @@ def newmark_march_packed(M, C, K, F, has_damping, h, alpha_m, alpha_f, beta, gam
                     break
                 factored[c, j] = True
             packed_solve(LUj, perm, lu_ptr, lu_idx, diagonal, rhs, work)
-            if not _correct(rhs, qh, vh, ak, cC, cK, w, qc, vc, accc, ac):
+            if not _correct(rhs, qh, vh, ak, cC, cK, w, qc, vc, accc, ac, k, record_every,
+                            record[c]):
                 ok[c] = False
-            if record_every > 0 and (k + 1) % record_every == 0:
-                for i in range(n):
-                    record[c, (k + 1) // record_every, i] = qc[i, 0]
 
 
 @nb.njit(**_JIT)
