@@ -1,12 +1,16 @@
 """Periodic steady state by shooting (ced.response.periodic): Floquet flags on systems with
 known stability."""
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ced.response.integrators import newmark as average_acceleration
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
-from ced.response.periodic import (INSTABILITY_MARGIN, RESONANCE_GAP, floquet, monodromy,
-                                   periodic_state, shoot)
+from ced.response.periodic import (INSTABILITY_MARGIN, RESONANCE_GAP, RESONANCE_SHARE,
+                                   _near_share, _near_share_by_eig, floquet, monodromy,
+                                   periodic_state, resonant, shoot)
 
 
 def one_dof_period(stiffness, force, h, steps):
@@ -85,3 +89,66 @@ def test_periodic_state_of_some_cases_is_theirs_alone_and_the_multipliers_are_ph
     turn = np.exp(2j * np.pi * np.sqrt(k))  # e^{iωT}, T = 2π, to the phase error (ωh)²/12
     assert np.allclose(np.abs(mu - turn[:, None]).min(axis=1), 0.0, atol=0.02)
     assert not resonant.any()
+
+
+def _real_monodromy(rng, near: list[complex], others: int):
+    """A real Φ = V B V⁻¹ with the multipliers ``near`` (and their conjugates) and ``others``
+    random pairs inside the unit disc: B is block diagonal (2×2 rotations for the pairs), V
+    well conditioned (cond ≤ e²). Returns Φ and the exact share of the ``near`` blocks in the
+    displacement part (first 4 rows) of (I − Φ)⁻¹p for the returned p."""
+    multipliers = list(near) + [0.9 * rng.uniform(0.1, 1.0) * np.exp(1j * rng.uniform(0.2, 3.0))
+                                for _ in range(others)]
+    sizes = [1 if m.imag == 0.0 else 2 for m in multipliers]
+    r = sum(sizes)
+    B = np.zeros((r, r))
+    i = 0
+    for m, size in zip(multipliers, sizes):
+        B[i:i + size, i:i + size] = ([[m.real]] if size == 1
+                                     else [[m.real, m.imag], [-m.imag, m.real]])
+        i += size
+    Q1, _ = np.linalg.qr(rng.standard_normal((r, r)))
+    Q2, _ = np.linalg.qr(rng.standard_normal((r, r)))
+    V = Q1 @ np.diag(np.exp(rng.uniform(-1.0, 1.0, r))) @ Q2
+    p = rng.standard_normal(r)
+    z = np.linalg.solve(np.eye(r) - B, np.linalg.solve(V, p))  # in the blocks' coordinates
+    k = sum(sizes[:len(near)])
+    share = np.linalg.norm((V[:, :k] @ z[:k])[:4]) / np.linalg.norm((V @ z)[:4])
+    return V @ B @ np.linalg.inv(V), p, share
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), detuning=st.floats(1e-4, 0.04),
+       angle=st.floats(0.0, 2 * np.pi), real_one=st.booleans())
+def test_near_share_by_inverse_iteration_is_the_eigenvector_share(seed, detuning, angle,
+                                                                   real_one):
+    # The resonance share from inverse iteration at the near multipliers is the exact one
+    # (known from how Φ was made), as is the full eigenvector problem's, for a conjugate pair
+    # near 1 (and a real multiplier near 1).
+    rng = np.random.default_rng(seed)
+    near = [1.0 + detuning * np.exp(1j * angle)]
+    if abs(near[0].imag) < 1e-4:  # a pair this close to the real axis is a cluster (below)
+        near[0] = complex(near[0].real, 1e-4)
+    if real_one:
+        near.append(complex(1.0 - 0.5 * detuning, 0.0))
+    Phi, p, exact = _real_monodromy(rng, near, 8)
+    share = _near_share(np.linalg.eigvals(Phi), Phi, p, 4)
+    assert share is not None
+    assert share == pytest.approx(exact, rel=1e-9, abs=1e-12)
+    assert _near_share_by_eig(Phi, p, 4) == pytest.approx(exact, rel=1e-9, abs=1e-12)
+
+
+def test_clustered_or_exact_near_multipliers_fall_back_to_the_eigenvectors():
+    # Two distinct pairs within 1e-9 of each other: inverse iteration would mix their vectors,
+    # so the share is left to the eigenvector problem; so is an exact multiplier 1 (here
+    # planted in the list).
+    rng = np.random.default_rng(1)
+    m = 0.99 + 0.01j
+    Phi, p, _ = _real_monodromy(rng, [m, m + 1e-9], 4)
+    assert _near_share(np.linalg.eigvals(Phi), Phi, p, 4) is None
+    one, q, _ = _real_monodromy(rng, [complex(0.999, 0.0)], 4)
+    mu = np.linalg.eigvals(one)
+    mu[np.argmin(np.abs(mu - 1.0))] = 1.0
+    assert _near_share(mu, one, q, 4) is None
+    # ... and resonant() still decides them: the clustered pair carries the state or not.
+    flagged = resonant(np.linalg.eigvals(Phi)[None], Phi[None], p[None], 4)
+    assert flagged[0] == (_near_share_by_eig(Phi, p, 4) > RESONANCE_SHARE)
