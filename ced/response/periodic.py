@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-import scipy.linalg
+import scipy.linalg.lapack
 
 from .integrators import Integrator, NewmarkFamily, from_independent, independent
 from .marching import Marcher
@@ -250,8 +250,8 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> floa
             return None
         if weight == 0.0:
             continue
-        lu = scipy.linalg.lu_factor(Phi - mu[i] * eye, check_finite=False)
-        if not np.all(np.isfinite(lu[0])) or np.any(np.diag(lu[0]) == 0.0):
+        lu = _shifted_lu(Phi, mu[i], eye)
+        if lu is None:
             return None
         v, w = _inverse_iteration(lu, start, 0), _inverse_iteration(lu, start, 2)
         if v is None or w is None:
@@ -264,12 +264,29 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> floa
     return float(np.linalg.norm(part) / max(total, 1e-300))
 
 
+def _shifted_lu(Phi: np.ndarray, mu: complex, eye: np.ndarray):
+    """LAPACK's LU (lu, piv) of Φ − σI, σ the multiplier μ or, where that is exactly singular
+    in floating point (a pivot exactly 0), μ moved by 1e-13 of its size: inverse iteration
+    still converges at once (the next multiplier is at least :data:`_CLUSTER` away). None if
+    the matrix is not finite."""
+    for shift in (mu, mu * (1.0 + 1e-13) + 1e-13):
+        lu, piv, info = scipy.linalg.lapack.zgetrf(Phi - shift * eye)
+        if info < 0 or not np.all(np.isfinite(lu)):
+            return None
+        if info == 0:
+            return lu, piv
+    return None
+
+
 def _inverse_iteration(lu, start: np.ndarray, trans: int) -> np.ndarray | None:
-    """Unit eigenvector of the nearly singular Φ − μI factored in ``lu``: right (``trans`` 0)
-    or left (2, of its conjugate transpose); None if it does not settle in a few solves."""
+    """Unit eigenvector of the nearly singular Φ − μI factored in ``lu`` (:func:`_shifted_lu`):
+    right (``trans`` 0) or left (2, of its conjugate transpose); None if it does not settle in
+    a few solves."""
     x = start / np.linalg.norm(start)
     for _ in range(6):
-        y = scipy.linalg.lu_solve(lu, x, trans=trans, check_finite=False)
+        y, info = scipy.linalg.lapack.zgetrs(*lu, x, trans=trans)
+        if info != 0:
+            return None
         size = np.linalg.norm(y)
         if not np.isfinite(size) or size == 0.0:
             return None
