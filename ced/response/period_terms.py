@@ -304,18 +304,18 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
     if not exact and 4 * n <= period:  # else every step costs little more than sampling
         values = evaluate_terms(model, h, np.arange(n) * (period / n))
         while True:
+            # Sparse matrices are checked and interpolated packed: an entry zero at every
+            # sample is zero at every step, and adds nothing to the error or its scale.
+            pattern = _pattern(values)
+            order = step_order(pattern)
+            packed = {name: pack(x, order) if order is not None and name in _MATRICES
+                      else x for name, x in values.items()}
             # Interpolate the odd samples from the even ones: the half set's error.
-            even = {name: x[:, 0::2] for name, x in values.items()}
+            even = {name: x[:, 0::2] for name, x in packed.items()}
             approx = _interpolate_terms(even, np.arange(n // 2) + 0.5, n // 2)
-            estimate = _relative_error(approx, {k: x[:, 1::2] for k, x in values.items()})
+            estimate = _relative_error(approx, {k: x[:, 1::2] for k, x in packed.items()})
             estimate /= _HALVING_GAIN
             if (estimate <= tolerance).all():
-                pattern = _pattern(values)
-                order = step_order(pattern)
-                # Sparse matrices are interpolated packed: an entry zero at every sample is
-                # zero at every step.
-                packed = {name: pack(x, order) if order is not None and name in _MATRICES
-                          else x for name, x in values.items()}
                 return PeriodTerms(**_with_none(_interpolate_terms(
                     packed, np.arange(period) * (n / period), n)), samples=n,
                     interpolation_error=estimate, sampled=values, pattern=pattern,
