@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .coupling import Layout
-from .sandwich import sandwich_add
+from .sandwich import link_terms_add, sandwich_add
 
 #: Form Pᵀ A P in the compiled loop (:mod:`ced.fem.sandwich`); ``CED_KERNEL=numpy`` keeps the
 #: numpy products, the reference it is tested against.
@@ -184,6 +184,32 @@ class _Split:
         if ns and left == 0 and right == 0:
             out[..., c, c] += A[..., :ns, :ns]
 
+    def link_terms(self, M: np.ndarray | None, C: np.ndarray | None, K: np.ndarray,
+                   data: LinkData, w: np.ndarray, coefficients: list[np.ndarray],
+                   matrices: list[np.ndarray], centrifugal: bool) -> None:
+        """The link's M += PᵀM_lP, C += Pᵀ(2ωG P + 2M_l Ṗ) and K += Pᵀ(Σ c_k A_k) P
+        [+ Pᵀ(2ωG Ṗ + M_l P̈) if centrifugal]; M, C None to leave out, ω (case, step) rad/s.
+
+        Compiled as one pass (:func:`ced.fem.sandwich.link_terms_add`), else one
+        :meth:`sandwich` per product, the reference."""
+        if COMPILED and all(o is None or (o.flags.c_contiguous and o.dtype == np.float64)
+                            for o in (M, C, K)):
+            link_terms_add(M, C, K, data.mass, data.gyroscopic, coefficients, matrices, w,
+                           self.T, self.ns, self.cols.start, centrifugal)
+            return
+        if M is not None:
+            self.sandwich(M, data.mass)
+        if C is not None or centrifugal:
+            gyroscopic = 2.0 * w[..., None, None] * data.gyroscopic[:, None]
+        if C is not None:
+            self.sandwich(C, gyroscopic)
+            self.sandwich(C, 2.0 * data.mass, 0, 1)
+        if centrifugal:
+            self.sandwich(K, gyroscopic, 0, 1)
+            self.sandwich(K, data.mass, 0, 2)
+        if coefficients:
+            self.sandwich(K, _combine(coefficients, matrices))
+
     def apply_transpose(self, out: np.ndarray, f: np.ndarray) -> None:
         """out += P⁽⁰⁾ᵀ f for a permuted local vector f (case, step, n)."""
         if self.nf:
@@ -251,13 +277,6 @@ def system_terms(
         split = _Split(P[:, :, :, block], *layout.row_split(name))
         w = omega[..., i]
         a = alpha[..., i]
-        if M_el is not None:
-            split.sandwich(M_el, data.mass)
-        elif M is not None:
-            split.sandwich(M, data.mass)
-        if C is not None:
-            split.sandwich(C, 2.0 * w[..., None, None] * data.gyroscopic[:, None])
-            split.sandwich(C, 2.0 * data.mass, 0, 1)
         coefficients, matrices = [], []
         if layout.flexible[name]:
             if K_el is not None:
@@ -268,13 +287,11 @@ def system_terms(
         if centrifugal:
             coefficients += [a, -w * w]
             matrices += [data.gyroscopic, data.translational_mass]
-            split.sandwich(K, 2.0 * w[..., None, None] * data.gyroscopic[:, None], 0, 1)
-            split.sandwich(K, data.mass, 0, 2)
         if axial is not None:
             coefficients += list(axial[name])
             matrices += list(np.moveaxis(data.geometric_stiffness, 1, 0))
-        if coefficients:
-            split.sandwich(K, _combine(coefficients, matrices))
+        split.link_terms(M_el if M_el is not None else M, C, K, data, w, coefficients,
+                         matrices, centrifugal)
         b0, b1, m0 = link_loads[name]
         f = b0 @ np.swapaxes(data.load_constant, -1, -2) + b1 @ np.swapaxes(
             data.load_linear, -1, -2)
