@@ -61,6 +61,17 @@ def test_compiled_terms_equal_numpy_terms_to_round_off(raw, extras, monkeypatch)
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-13 * scale, err_msg=name)
 
 
+def _projection(T, d, ns, c0, ny):
+    """Dense d-th derivative of a link block P = [[0, I_ns], [T, 0]] (case, step, ns + nv, ny):
+    ns unit rows onto columns c0 … c0 + ns, then the varying rows T[d] onto the first nf."""
+    ncase, nstep, nv, nf = T[d].shape
+    p = np.zeros((ncase, nstep, ns + nv, ny))
+    if d == 0:
+        p[..., :ns, c0:c0 + ns] = np.eye(ns)
+    p[..., ns:, :nf] = T[d]
+    return p
+
+
 @pytest.mark.parametrize("left, right", [(0, 0), (0, 1), (1, 0), (2, 2)])
 @pytest.mark.parametrize("per_step", [False, True])
 def test_blocks_of_the_product(left, right, per_step):
@@ -74,11 +85,7 @@ def test_blocks_of_the_product(left, right, per_step):
     T = [rng.standard_normal((ncase, nstep, nv, nf)) for _ in range(3)]
 
     def P(d):
-        p = np.zeros((ncase, nstep, n, ny))
-        if d == 0:
-            p[..., :ns, c0:] = np.eye(ns)
-        p[..., ns:, :nf] = T[d]
-        return p
+        return _projection(T, d, ns, c0, ny)
 
     A4 = A if per_step else A[:, None]
     expected = np.swapaxes(P(left), -1, -2) @ A4 @ P(right)
@@ -103,11 +110,7 @@ def test_link_terms_blocks(ns, nf, has_m, has_c, centrifugal, nk):
     T = [rng.standard_normal((ncase, nstep, nv, nf)) for _ in range(3)]
 
     def P(d):
-        p = np.zeros((ncase, nstep, n, ny))
-        if d == 0:
-            p[..., :ns, c0:] = np.eye(ns)
-        p[..., ns:, :nf] = T[d]
-        return p
+        return _projection(T, d, ns, c0, ny)
 
     def product(A, right):
         A = A if A.ndim == 4 else A[:, None]
