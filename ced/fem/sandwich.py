@@ -194,10 +194,10 @@ def link_terms_add(M: np.ndarray | None, C: np.ndarray | None, K: np.ndarray,
     Parameters
     ----------
     M, C : numpy.ndarray or None
-        Reduced mass (kg-based units of the DOFs) and damping targets (case, step, ny, ny),
-        C-contiguous float64, or None to leave out.
+        Reduced mass and damping targets (case, step, ny, ny) in the SI units of the DOF
+        pairs (kg, kg/s for translations), C-contiguous float64, or None to leave out.
     K : numpy.ndarray
-        Reduced stiffness (case, step, ny, ny), C-contiguous float64.
+        Reduced stiffness (case, step, ny, ny) (N/m for translations), C-contiguous float64.
     mass, gyroscopic : numpy.ndarray
         The link's mass matrix M_l and gyroscopic matrix G in split order, (case, n, n).
     coefficients, matrices : list of numpy.ndarray
