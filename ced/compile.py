@@ -40,8 +40,11 @@ WARM_UP_SCENE = {
 }
 #: The same with every FE DOF, whose step matrices are sparse (the kernels on packed terms,
 #: :mod:`ced.response.step_pattern`), at 128 steps per revolution: the terms evaluated at every
-#: step.
+#: step; with Rayleigh damping, whose elastic stiffness is formed link by link apart
+#: (:func:`ced.fem.sandwich.sandwich_add`).
 WARM_UP_SPARSE = {**WARM_UP_SCENE,
+                  "effects": [*WARM_UP_SCENE["effects"], "damping"],
+                  "damping": {"model": "rayleigh", "alpha": 1.0, "beta": 1e-5},
                   "discretization": {**WARM_UP_SCENE["discretization"], "modes_per_link": 0},
                   "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 128}}
 
