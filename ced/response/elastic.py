@@ -172,7 +172,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         # Peaks only, at a fixed number of points (an error estimate's companion): the terms
         # are needed at the collocation points alone, not at every step of the period.
         series = spectral_steady_state(model, None, np.ones(ncase, bool),
-                                       time_cfg["steps_per_revolution"])
+                                       time_cfg["steps_per_revolution"], history=False)
         _add_series(result, series)
         if series.solved.all():
             return None, None, None
@@ -233,8 +233,10 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         _, record = marcher.march(state, n_steps, every)
     else:
         record = np.empty((ncase, len(out_steps), ny))
-    if series is not None:  # its cases repeat the series' period
+    if series is not None and series.displacement is not None:  # the series' period repeats
         record[series.solved] = series.displacement[series.solved][:, out_steps % period.period]
+    elif series is not None:  # peaks only: the solved cases' peaks are their series'
+        record[series.solved] = 0.0
     return _expand(layout, period, record, out_steps), qz_static, period
 
 

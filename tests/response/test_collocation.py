@@ -192,7 +192,8 @@ def test_spectral_refuses_auto_discretization():
 
 def test_fixed_points_take_no_ladder_and_peaks_only_needs_the_terms_at_them_alone(monkeypatch):
     # A companion's solve (peaks only, fixed P) evaluates the terms at the P points only, and
-    # gives the peaks of the full solve at the same P: the same series.
+    # gives the peaks of the full solve at the same P: the same series, not evaluated at the
+    # period's steps.
     from ced.response import batch as batch_module, period_terms
     from ced.simulation.simulate import solve_batch
     scenes = []
@@ -212,8 +213,11 @@ def test_fixed_points_take_no_ladder_and_peaks_only_needs_the_terms_at_them_alon
         return evaluate(model, h, at)
     monkeypatch.setattr("ced.response.collocation.evaluate_terms", spy)
     monkeypatch.setattr("ced.response.period_terms.evaluate_terms", spy)
+    histories = []  # ... and no history of the series at the period's steps: peaks only
+    monkeypatch.setattr("ced.response.collocation.evaluate",
+                        lambda *args: histories.append(args) or pytest.fail("history"))
     peaks_only = solve_batch(batch_module.make_batch(scenes), peaks_only=True)
-    assert phases == [64]
+    assert phases == [64] and not histories
     np.testing.assert_allclose(peaks_only["peak_stress"], full.peak_stress, rtol=1e-12)
     np.testing.assert_allclose(peaks_only["peak_deflection"], full.peak_deflection, rtol=1e-12)
     np.testing.assert_array_equal(peaks_only["collocation_points"], [64, 64])
