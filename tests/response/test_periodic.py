@@ -8,9 +8,9 @@ from hypothesis import strategies as st
 from ced.response.integrators import newmark as average_acceleration
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
-from ced.response.periodic import (INSTABILITY_MARGIN, RESONANCE_GAP, RESONANCE_SHARE,
-                                   _near_share, _near_share_by_eig, floquet, monodromy,
-                                   periodic_state, resonant, shoot)
+from ced.response.periodic import (COND_LIMIT, INSTABILITY_MARGIN, RESONANCE_GAP,
+                                   RESONANCE_SHARE, _near_share, _near_share_by_eig, _regular,
+                                   floquet, monodromy, periodic_state, resonant, shoot)
 
 
 def one_dof_period(stiffness, force, h, steps):
@@ -153,3 +153,17 @@ def test_clustered_or_exact_near_multipliers_fall_back_to_the_eigenvectors():
     # ... and resonant() still decides them: the clustered pair carries the state or not.
     flagged = resonant(np.linalg.eigvals(Phi)[None], Phi[None], p[None], 4)
     assert flagged[0] == (_near_share_by_eig(Phi, p, 4) > RESONANCE_SHARE)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), log_cond=st.floats(0.0, 17.0), n=st.integers(2, 60))
+def test_the_direct_solve_is_taken_exactly_where_the_condition_number_allows_it(seed, log_cond,
+                                                                                   n):
+    # The quick decision from LAPACK's condition estimate is the singular values' one,
+    # whatever the conditioning (near the limit the singular values decide).
+    rng = np.random.default_rng(seed)
+    U, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    V, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    s = np.logspace(0.0, -log_cond, n)
+    A = (U * s) @ V.T
+    assert _regular(A) == (np.linalg.cond(A) < COND_LIMIT)
