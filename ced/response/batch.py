@@ -127,6 +127,9 @@ class Batch:
     #: dyads, made once per batch (the rigid motion of every terms evaluation reads them);
     #: None for the types with their own kinematics.
     descriptions: list[dict] | None = None
+    #: The rigid motion at the steps 0 … k of the step grid, (k, motion), kept by
+    #: :meth:`rigid_motion` for the later calls at steps of the grid.
+    _on_grid: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -155,8 +158,40 @@ class Batch:
         return self.step_size[:, None] * np.arange(self.n_steps + 1)[None, :]
 
     def rigid_motion(self, times: np.ndarray | None = None) -> kinematics.RigidMotion:
-        """Rigid motion on the step grid, or at arbitrary ``times`` (case, n) s."""
+        """Rigid motion on the step grid, or at arbitrary ``times`` (case, n) s.
+
+        ``times`` on the step grid (every step or some of them, in any window: the rigid
+        outputs' period, the period's terms sampled or evaluated chunk by chunk) are read from
+        the motion of the steps 0 … k (at least one input period), solved once per batch and
+        kept. So every evaluation follows the one continuous motion from the start: where the
+        assembly's two branches meet (a change point) it passes straight through, whereas a
+        window solved on its own would start again on the scene's branch (the motion of a
+        window after the change point was the other branch's, up to π off in the link
+        angles). Away from the grid (modal phases, collocation points) the times are solved
+        as given.
+        """
         times = self.time() if times is None else times
+        steps = self._grid_steps(times)
+        if steps is None:
+            return self._solve_motion(times)
+        if self._on_grid is None or steps[-1] > self._on_grid[0]:
+            last = max(int(steps[-1]), self.scenes[0]["time"]["steps_per_revolution"])
+            grid = np.arange(last + 1)
+            self._on_grid = (last, self._solve_motion(self.step_size[:, None] * grid[None, :]))
+        return kinematics.at_steps(self._on_grid[1], steps)
+
+    def _grid_steps(self, times: np.ndarray) -> np.ndarray | None:
+        """The steps k (n,) with ``times`` exactly step_size × k in every case, ascending from
+        0 or more; None if they are not."""
+        if times.ndim != 2 or not times.size:
+            return None
+        steps = np.rint(times[0] / self.step_size[0])
+        if (steps[0] < 0 or np.any(np.diff(steps) <= 0)
+                or not np.array_equal(times, self.step_size[:, None] * steps[None, :])):
+            return None
+        return steps.astype(np.int64)
+
+    def _solve_motion(self, times: np.ndarray) -> kinematics.RigidMotion:
         motion = kinematics.input_motion(times, self.speed, self.initial_angle, self.amplitude)
         L = self.lengths
         if self.mechanism_type == "four_bar":

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import dataclasses
 from dataclasses import dataclass
 
 import numba as nb
@@ -15,7 +16,8 @@ import numpy as np
 
 from ..problem.mechanism import GRASHOF_RTOL, Topology, topology
 
-__all__ = ["InputMotion", "RigidMotion", "input_motion", "four_bar", "slider_crank", "single_link"]
+__all__ = ["InputMotion", "RigidMotion", "at_steps", "input_motion", "four_bar", "slider_crank",
+           "single_link"]
 
 #: |sin| of the transmission angle below which the closed-form velocity formulas are replaced
 #: by interpolation in time (change points and toggle positions: the formulas become 0/0).
@@ -30,6 +32,28 @@ class InputMotion:
     angle: np.ndarray
     velocity: np.ndarray
     acceleration: np.ndarray
+
+
+def at_steps(motion: RigidMotion, steps: np.ndarray) -> RigidMotion:
+    """``motion`` at the given indices of its step axis (per-case values as they are).
+
+    Parameters
+    ----------
+    motion : RigidMotion
+        Rigid motion (case, step, …).
+    steps : numpy.ndarray
+        Indices into its step axis, (n,) int.
+    """
+    slide = None if motion.slide is None else {
+        name: tuple(x[:, steps] for x in value) for name, value in motion.slide.items()}
+    return dataclasses.replace(
+        motion, time=motion.time[:, steps], link_angle=motion.link_angle[:, steps],
+        link_angular_velocity=motion.link_angular_velocity[:, steps],
+        link_angular_acceleration=motion.link_angular_acceleration[:, steps],
+        joint_position=motion.joint_position[:, steps],
+        joint_velocity=motion.joint_velocity[:, steps],
+        joint_acceleration=motion.joint_acceleration[:, steps],
+        singular=motion.singular[:, steps], slide=slide)
 
 
 def input_motion(
