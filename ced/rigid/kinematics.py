@@ -6,9 +6,9 @@ m, angular velocities in rad/s, angular accelerations in rad/s².
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
-import dataclasses
 from dataclasses import dataclass
 
 import numba as nb
