@@ -196,7 +196,10 @@ MEANINGS: dict[str, str] = {
     "mechanism.four_bar.crank": "length of the input link A→B",
     "mechanism.four_bar.coupler": "length of the coupler B→C",
     "mechanism.four_bar.rocker": "length of the output link D→C",
-    "mechanism.four_bar.branch": "assembly branch: open puts C on the left of B→D at the start",
+    "mechanism.four_bar.branch": "assembly branch: open puts C on the left of B→D at the start "
+                                 "(a kite, crank = ground and coupler = rocker, whose B passes "
+                                 "over D: on the left of (sin θ/2, −cos θ/2), which is B→D for "
+                                 "0 < θ < 2π)",
     "mechanism.slider_crank.crank": "length of the crank A→B",
     "mechanism.slider_crank.rod": "length of the connecting rod B→C",
     "mechanism.slider_crank.offset": "signed distance of the slider's guide from the x-axis "

@@ -284,6 +284,34 @@ def fill_singular(values: np.ndarray, singular: np.ndarray) -> np.ndarray:
     return out
 
 
+def _over_pivot(th2, a, d, psi, over):
+    """The diagonal B→D of the kites ``over`` (case,), crank as long as the ground and
+    coupler as long as the rocker: their crank pin B passes over the rocker pivot D at θ2 = 0
+    (mod 2π), where B→D reverses and its angle ψ jumps by π (no other four-bar has |BD| = 0:
+    it needs a = g, and |b − c| ≤ |BD|). Written as BD = 2a sin(θ2/2) u with the unit vector
+    u = (sin(θ2/2), −cos(θ2/2)) (exact for a = g), the length signed by sin(θ2/2) and ψ the
+    angle of u continue smoothly through it: the two assembly solutions ψ ± β keep their labels
+    (C left or right of u, which is B→D for 0 < θ2 < 2π) and the motion passes over D on the
+    branch it is on, as it does through every change point, instead of reversing its coupler
+    (a kite or rhombus; at θ2 = 0 itself ψ was undefined and the motion NaN).
+
+    Parameters
+    ----------
+    th2 : (case, step) rad
+    a : (case, 1) m, the crank
+    d, psi : (case, step) m, rad: |BD| and its angle
+
+    Returns
+    -------
+    (d, psi) with the rows ``over`` replaced by the signed length and the angle of u.
+    """
+    half = 0.5 * th2[over]
+    d, psi = d.copy(), psi.copy()
+    d[over] = 2.0 * a[over] * np.sin(half)
+    psi[over] = half - 0.5 * np.pi
+    return d, psi
+
+
 def four_bar(
     ground: np.ndarray,
     crank: np.ndarray,
@@ -314,8 +342,14 @@ def four_bar(
     BDx, BDy = g - Bx, 0.0 - By  # D − B, D = (g, 0)
     d = np.hypot(BDx, BDy)
     psi = np.arctan2(BDy, BDx)
+    over = ((a == g) & (b == c))[:, 0]
+    if over.any():
+        d, psi = _over_pivot(th2, a, d, psi, over)
     # Angle at B between B→D and B→C (law of cosines); clipped at the toggle limits.
-    cos_beta = np.clip((b * b + d * d - c * c) / (2.0 * b * d), -1.0, 1.0)
+    with np.errstate(invalid="ignore"):  # 0/0 where a kite's B is on D: β = π/2 there
+        cos_beta = np.clip((b * b + d * d - c * c) / (2.0 * b * d), -1.0, 1.0)
+    if over.any():
+        cos_beta[over[:, None] & (d == 0.0)] = 0.0
     beta = np.arccos(cos_beta)
     candidates = np.stack([psi + beta, psi - beta])  # C left of B→D, C right of B→D
     start = np.where(np.asarray(branch)[:] > 0, 0, 1)

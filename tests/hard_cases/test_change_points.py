@@ -54,6 +54,20 @@ def test_change_point_is_finite_and_near_singular(mechanism, initial_angle):
         assert np.abs(coupler).max() < 1e-6
 
 
+@pytest.mark.parametrize("coupler", [0.1, 0.3])
+def test_kite_whose_crank_pin_passes_over_the_rocker_pivot_is_solved(coupler):
+    """Crank = ground, coupler = rocker: B lies on D at θ = 0, the folded position the
+    default study's kites rock through; they all failed (NaN motion) before."""
+    kite = {"type": "four_bar", "ground": 0.3, "crank": 0.3, "coupler": coupler,
+            "rocker": coupler}
+    ds = simulate({**scene(kite), "drive": {"speed": 20.0, "initial_angle": 0.0,
+                                            "amplitude": 0.8}})
+    assert str(ds.family.values[0]) == "change_point"
+    assert_finite(ds)
+    assert "near_singular" in flags(ds) and "failed" not in flags(ds)
+    assert float(ds.peak_stress.max()) > 0
+
+
 def test_branch_choice_is_deterministic():
     a, b = simulate(scene(CHANGE_POINT)), simulate(scene(CHANGE_POINT))
     assert np.array_equal(a.link_angle.values, b.link_angle.values)

@@ -3,6 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ced.problem.mechanism import input_limits
 from ced.rigid import kinematics as kin
 from tests.conftest import FD8, check_derivatives, drive_of, four_bars
 
@@ -87,6 +88,61 @@ def test_parallelogram_tracks_through_change_point():
     assert np.abs(coupler).max() < 1e-6
     assert np.abs(r.link_angular_velocity[0, :, 2] - 1.0).max() < 1e-6
     assert r.singular.any()
+
+
+def _kite(coupler, branch, steps, speed=50.0):
+    """A kite (crank = ground = 0.25 m, coupler = rocker) rocking 0.8 of its half-range
+    about θ = 0, where its crank pin B lies on the rocker pivot D: ``steps`` a period."""
+    g = a = 0.25
+    lim = input_limits(g, a, coupler, coupler)
+    t = (2 * np.pi / speed) * np.arange(steps + 1)[None] / steps
+    motion = kin.input_motion(t, [speed], [lim.mid], [0.8 * lim.half_range])
+    return kin.four_bar([g], [a], [coupler], [coupler], motion, [branch])
+
+
+@pytest.mark.parametrize("branch", [1.0, -1.0])
+@pytest.mark.parametrize("coupler", [0.05, 0.25, 0.45])
+def test_kite_passes_over_the_rocker_pivot(coupler, branch):
+    """B on D (θ = 0, every half period) left B→D undefined: the motion was NaN there and
+    every case failed (144 of the default study's change points). Now it is finite, closed,
+    continuous, and the same however it is sampled."""
+    fine, coarse = _kite(coupler, branch, 1024), _kite(coupler, branch, 64)
+    assert fine.singular[0, [0, 512, 1024]].all()  # coupler folded on the rocker
+    for r in (fine, coarse):
+        for value in (r.link_angle, r.link_angular_velocity, r.link_angular_acceleration,
+                      r.joint_position, r.joint_velocity, r.joint_acceleration):
+            assert np.isfinite(value).all()
+        A, B, C, D = (r.joint_position[0, :, k] for k in range(4))
+        assert np.abs(np.linalg.norm(C - B, axis=-1) - coupler).max() < 1e-14
+        assert np.abs(np.linalg.norm(C - D, axis=-1) - coupler).max() < 1e-14
+    # Continuous: no step turns a link by more than its fastest rate allows.
+    step = (2 * np.pi / 50.0) / 1024
+    rate = np.abs(fine.link_angular_velocity[0]).max(axis=0)
+    assert np.all(np.abs(np.diff(fine.link_angle[0], axis=0)).max(axis=0) <= 1.01 * rate * step + 1e-12)
+    assert np.abs(coarse.link_angle[0] - fine.link_angle[0, ::16]).max() < 1e-12
+    # Rates and accelerations are the motion's, away from the fold.
+    dt = 1e-4 / 50.0
+    t0 = 0.2 * 2 * np.pi / 50.0
+    lim = input_limits(0.25, 0.25, coupler, coupler)
+    motion = kin.input_motion((t0 + dt * np.arange(-4, 5))[None], [50.0], [lim.mid],
+                              [0.8 * lim.half_range])
+    check_derivatives(kin.four_bar([0.25], [0.25], [coupler], [coupler], motion, [branch]),
+                      dt, 50.0, 1e-6)
+
+
+def test_rhombus_keeps_its_mode_over_the_pivot_and_through_collinearity():
+    """A rhombus turning fully passes B over D at θ = 0 and lies collinear at θ = π: open
+    stays the parallelogram (coupler parallel to the ground, rocker turning with the crank),
+    crossed the folded kite (C on A, rocker at π)."""
+    t = np.linspace(0.0, 2 * 2 * np.pi, 801)[None]  # 1 rad/s: θ hits 0, π, 2π exactly
+    motion = kin.input_motion(t, [1.0], [0.0])
+    opened = kin.four_bar([0.3], [0.3], [0.3], [0.3], motion, [1.0])
+    assert np.abs(opened.link_angle[0, :, 1]).max() < 1e-12
+    assert np.abs(opened.link_angle[0, :, 2] - t[0]).max() < 1e-12
+    crossed = kin.four_bar([0.3], [0.3], [0.3], [0.3], motion, [-1.0])
+    assert np.abs(crossed.joint_position[0, :, 2]).max() < 1e-12
+    rocker = crossed.link_angle[0, :, 2]
+    assert np.abs(np.sin(rocker)).max() < 1e-12 and np.all(np.cos(rocker) < 0)
 
 
 @pytest.mark.parametrize("offset, branch", [(0.0, 1.0), (0.05, 1.0), (-0.04, -1.0)])
