@@ -168,17 +168,53 @@ class Batch:
         window solved on its own would start again on the scene's branch (the motion of a
         window after the change point was the other branch's, up to π off in the link
         angles). Away from the grid (modal phases, collocation points) the times are solved
-        as given.
+        on the branches that motion takes at the steps around them (:meth:`_off_grid`).
         """
         times = self.time() if times is None else times
         steps = self._grid_steps(times)
         if steps is None:
-            return self._solve_motion(times)
-        if self._on_grid is None or steps[-1] > self._on_grid[0]:
-            last = max(int(steps[-1]), self.scenes[0]["time"]["steps_per_revolution"])
+            return self._off_grid(times)
+        return kinematics.at_steps(self._grid_motion(int(steps[-1])), steps)
+
+    def _grid_motion(self, last: int) -> kinematics.RigidMotion:
+        """The motion of the steps 0 … k, k ≥ ``last`` and at least one input period, solved
+        from the start once and kept (solved again, longer, when a later step is asked for)."""
+        if self._on_grid is None or last > self._on_grid[0]:
+            last = max(last, self.scenes[0]["time"]["steps_per_revolution"])
             grid = np.arange(last + 1)
             self._on_grid = (last, self._solve_motion(self.step_size[:, None] * grid[None, :]))
-        return kinematics.at_steps(self._on_grid[1], steps)
+        return self._on_grid[1]
+
+    def _off_grid(self, times: np.ndarray) -> kinematics.RigidMotion:
+        """The motion at times off the step grid, each on the assembly solution the grid's
+        motion takes around it (:func:`ced.rigid.kinematics.branch_between`), so that it does
+        not depend on which other times are asked for with it.
+
+        Solved as a sequence of their own, the times tracked their own branch, and a sequence
+        that sampled a change point coarsely (the modal analysis's 12 phases against 128 steps
+        per revolution) could come out on the other configuration past it. A time past the
+        kept motion lengthens it; one before the start (the quasi-static start's −h)
+        continues its first step backwards. A batch whose assembly solutions cannot change
+        (no change-point four-bar, no RRR dyad) is solved as given: it has one solution.
+        """
+        if not self._may_switch_branch():
+            return self._solve_motion(times)
+        position = times / self.step_size[:, None]  # in steps, fractional
+        lower = np.maximum(np.floor(position), 0.0).astype(np.int64)
+        grid = self._grid_motion(int(lower.max()) + 1 if lower.size else 0)
+        follow = kinematics.branch_between(grid, lower, position - lower)
+        return self._solve_motion(times, follow)
+
+    def _may_switch_branch(self) -> bool:
+        """Whether the motion of some case can change assembly solution: a four-bar at a
+        change point (S + L = P + Q) or a linkage with an RRR dyad (tracked wherever its
+        solutions meet)."""
+        if self.mechanism_type == "four_bar":
+            return "change_point" in self.families
+        if self.mechanism_type in _LENGTH_KEYS:
+            return False
+        descriptions = self.descriptions or [describe(self.scenes[0]["mechanism"])]
+        return any(d["kind"] == "RRR" for d in descriptions[0]["dyads"])
 
     def _grid_steps(self, times: np.ndarray) -> np.ndarray | None:
         """The steps k (n,) with ``times`` exactly step_size × k in every case, ascending from
@@ -191,18 +227,23 @@ class Batch:
             return None
         return steps.astype(np.int64)
 
-    def _solve_motion(self, times: np.ndarray) -> kinematics.RigidMotion:
+    def _solve_motion(self, times: np.ndarray,
+                      follow: dict | None = None) -> kinematics.RigidMotion:
+        """The motion at ``times`` (case, n) s, its assembly solutions tracked along them
+        from the scenes' branches, or given by ``follow``
+        (:func:`ced.rigid.kinematics.branch_between`)."""
         motion = kinematics.input_motion(times, self.speed, self.initial_angle, self.amplitude)
         L = self.lengths
         if self.mechanism_type == "four_bar":
             return kinematics.four_bar(
-                L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch)
+                L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch,
+                None if follow is None else follow["coupler"])
         if self.mechanism_type == "slider_crank":
             return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion, self.branch)
         if self.mechanism_type == "single_link":
             return kinematics.single_link(L["length"], motion)
         descriptions = self.descriptions or [describe(s["mechanism"]) for s in self.scenes]
-        return dyads.linkage(descriptions, motion)
+        return dyads.linkage(descriptions, motion, follow)
 
 
 _LENGTH_KEYS = {

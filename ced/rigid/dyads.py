@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..problem.linkage import linkage_topology
-from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, fill_singular, perp,
-                         track_branch, unit, unwrap)
+from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, choose_branch, fill_singular,
+                         perp, pick, unit, unwrap)
 
 __all__ = ["linkage", "dyad_sines", "point_motion"]
 
@@ -67,9 +67,10 @@ def _point_motion(base, trig, velocity, acceleration, local, out) -> None:
     np.subtract(base[2][..., 1] + al * rx, ww * ry, out=out[2][..., 1])
 
 
-def _rrr(P, Q, l1, l2, branch):
-    """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M, and the
-    (cos, sin) of both angles."""
+def _rrr(P, Q, l1, l2, branch, follow=None):
+    """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M, the
+    (cos, sin) of both angles and the solution chosen at each step (``follow``: as
+    :func:`ced.rigid.kinematics.four_bar` takes it)."""
     dx, dy = Q[0][..., 0] - P[0][..., 0], Q[0][..., 1] - P[0][..., 1]
     dist = np.hypot(dx, dy)
     psi = np.arctan2(dy, dx)
@@ -79,7 +80,8 @@ def _rrr(P, Q, l1, l2, branch):
     start = np.where(branch > 0, 0, 1)
     # A dyad that assembles over the whole motion has its two solutions meet only where the
     # loop passes a change point: there the one continuing straight through is kept.
-    th1 = unwrap(track_branch(candidates, start, np.ones(len(l1), bool)))
+    choice = choose_branch(candidates, start, np.ones(len(l1), bool), follow)
+    th1 = unwrap(pick(candidates, choice))
     c1, s1 = np.cos(th1), np.sin(th1)
     # M − Q with M = P + l1 e1.
     th2 = unwrap(np.arctan2(P[0][..., 1] + l1 * s1 - Q[0][..., 1],
@@ -100,7 +102,7 @@ def _rrr(P, Q, l1, l2, branch):
     al1 = (dax * c2 + day * s2) / (l1 * safe)
     al2 = (dax * c1 + day * s1) / (l2 * safe)
     al1, al2 = fill_singular(al1, singular), fill_singular(al2, singular)
-    return (th1, w1, al1), (th2, w2, al2), singular, (c1, s1), (c2, s2)
+    return (th1, w1, al1), (th2, w2, al2), singular, (c1, s1), (c2, s2), choice
 
 
 def _rrp(P, length, guide_angle, guide_point, branch):
@@ -143,7 +145,8 @@ def _rpr(P, Q, offset):
     return (th, w, al), (s, ds, dds), (e1[..., 0], e1[..., 1])
 
 
-def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
+def linkage(descriptions: list[dict], motion: InputMotion,
+            follow: dict[str, tuple] | None = None) -> RigidMotion:
     """Closed-form kinematics of a batch of linkages of one dyad structure.
 
     Parameters
@@ -153,14 +156,19 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         same names and dyad kinds; lengths in m, angles in rad.
     motion : InputMotion
         The input link's angle, angular velocity and acceleration, (case, step).
+    follow : dict, optional
+        For the first link of each RRR dyad, its assembly solution at each time (index, near),
+        each (case, step), as :func:`ced.rigid.kinematics.four_bar` takes it, instead of
+        tracking it along the times from the dyad's branch.
 
     Returns
     -------
     RigidMotion
         Angles and rates of every link (case, step, link), positions, velocities and
         accelerations of every joint (case, step, joint, 2), the link lengths first→second
-        joint (case, link), the guide angle of every slider block (rad, (case,)) and the
-        slide of every RPR sleeve along its guide bar (m, m/s, m/s², (case, step)).
+        joint (case, link), the guide angle of every slider block (rad, (case,)), the
+        slide of every RPR sleeve along its guide bar (m, m/s, m/s², (case, step)) and the
+        solution chosen for the first link of every RRR dyad (case, step).
     """
     first = descriptions[0]
     topo = linkage_topology(first)
@@ -177,6 +185,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     lengths: dict[str, np.ndarray] = {}
     guide_angle: dict[str, np.ndarray] = {}
     slide: dict[str, tuple] = {}
+    branch: dict[str, np.ndarray] = {}
     singular = np.zeros(shape, bool)
     inp = first["input"]
     lengths[inp["link"]] = _column(descriptions, lambda d: d["input"]["length"])
@@ -207,20 +216,21 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
             angles[l1], slide[l2], trig[l1] = _rpr(P, known[dyad["joints"][2]], offset)
             place(l1)
             continue
-        branch = _column(descriptions, lambda d: 1.0 if d["dyads"][k]["branch"] == "open"
-                         else -1.0)[:, None]
+        sign = _column(descriptions, lambda d: 1.0 if d["dyads"][k]["branch"] == "open"
+                       else -1.0)[:, None]
         if dyad["kind"] == "RRR":
             Q = known[dyad["joints"][2]]
             lengths[l2] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][1])
-            angles[l1], angles[l2], bad, trig[l1], trig[l2] = _rrr(
-                P, Q, lengths[l1][:, None], lengths[l2][:, None], branch[:, 0])
+            angles[l1], angles[l2], bad, trig[l1], trig[l2], branch[l1] = _rrr(
+                P, Q, lengths[l1][:, None], lengths[l2][:, None], sign[:, 0],
+                None if follow is None else follow[l1])
             singular |= bad
             place(l1)
             place(l2)
         else:
             phi = _column(descriptions, lambda d: d["dyads"][k]["guide"]["angle"])
             point = _column(descriptions, lambda d: d["dyads"][k]["guide"]["point"])
-            angles[l1] = _rrp(P, lengths[l1][:, None], phi, point, branch)
+            angles[l1] = _rrp(P, lengths[l1][:, None], phi, point, sign)
             guide_angle[l2] = phi
             place(l1)
     names = topo.link_names
@@ -237,6 +247,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
         singular=singular,
         guide_angle=guide_angle,
         slide=slide or None,
+        branch=branch or None,
     )
 
 

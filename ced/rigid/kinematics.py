@@ -16,8 +16,8 @@ import numpy as np
 
 from ..problem.mechanism import GRASHOF_RTOL, Topology, topology
 
-__all__ = ["InputMotion", "RigidMotion", "at_steps", "input_motion", "four_bar", "slider_crank",
-           "single_link"]
+__all__ = ["InputMotion", "RigidMotion", "at_steps", "branch_between", "input_motion", "four_bar",
+           "slider_crank", "single_link"]
 
 #: |sin| of the transmission angle below which the closed-form velocity formulas are replaced
 #: by interpolation in time (change points and toggle positions: the formulas become 0/0).
@@ -46,6 +46,8 @@ def at_steps(motion: RigidMotion, steps: np.ndarray) -> RigidMotion:
     """
     slide = None if motion.slide is None else {
         name: tuple(x[:, steps] for x in value) for name, value in motion.slide.items()}
+    branch = None if motion.branch is None else {
+        name: choice[:, steps] for name, choice in motion.branch.items()}
     return dataclasses.replace(
         motion, time=motion.time[:, steps], link_angle=motion.link_angle[:, steps],
         link_angular_velocity=motion.link_angular_velocity[:, steps],
@@ -53,7 +55,48 @@ def at_steps(motion: RigidMotion, steps: np.ndarray) -> RigidMotion:
         joint_position=motion.joint_position[:, steps],
         joint_velocity=motion.joint_velocity[:, steps],
         joint_acceleration=motion.joint_acceleration[:, steps],
-        singular=motion.singular[:, steps], slide=slide)
+        singular=motion.singular[:, steps], slide=slide, branch=branch)
+
+
+def branch_between(motion: RigidMotion, lower: np.ndarray, fraction: np.ndarray) -> dict:
+    """The assembly solution of every two-solution link at times between steps of ``motion``.
+
+    The solution chosen along a continuous motion changes only where the two touch (a change
+    point), so between two steps that chose the same one it is that one. Between two steps
+    that chose different ones the touching point lies in between, where the two solutions
+    differ by O(step); there the one nearest the link's angle interpolated linearly between
+    the steps is taken (the motion's own curve, within O(step²)), the other one being O(step)
+    away except within O(step²) of the touching point. A time before the first step
+    (``fraction`` < 0 with ``lower`` 0) takes the one nearest the first step's motion
+    continued backwards, straight through a touching point at the start as the motion passes
+    through the others.
+
+    Parameters
+    ----------
+    motion : RigidMotion
+        A motion on a step grid, with its choices (``motion.branch``).
+    lower : numpy.ndarray
+        Step before each time, (case, n) int, at most the grid's last step − 1.
+    fraction : numpy.ndarray
+        Each time's position after ``lower``, in steps, (case, n): in [0, 1), or negative
+        before step 0.
+
+    Returns
+    -------
+    dict of str to tuple of numpy.ndarray
+        For each link of ``motion.branch``: the solution to take (case, n) int, 0 or 1, or −1
+        where it is the one nearest the link's interpolated angle, and that angle (case, n)
+        rad: the ``follow`` argument of :func:`four_bar` and :func:`ced.rigid.dyads.linkage`.
+    """
+    rows = np.arange(lower.shape[0])[:, None]
+    out = {}
+    for link, choice in (motion.branch or {}).items():
+        before, after = choice[rows, lower], choice[rows, lower + 1]
+        angle = motion.link_angle[..., motion.topology.link_names.index(link)]
+        start = angle[rows, lower]
+        near = start + fraction * (angle[rows, lower + 1] - start)
+        out[link] = (np.where((before == after) & (fraction >= 0.0), before, -1), near)
+    return out
 
 
 def input_motion(
@@ -100,7 +143,10 @@ class RigidMotion:
     rad; None for the built-in mechanisms (a slider-crank's guide is parallel to x).
     ``slide`` maps each sleeve of an RPR dyad to its distance s from the guide bar's pivot
     along the bar (m), its rate (m/s) and acceleration (m/s²), each (case, step); None
-    without sleeves.
+    without sleeves. ``branch`` maps each link placed by choosing one of two assembly
+    solutions (a four-bar's coupler, the first link of an RRR dyad) to the solution taken at
+    every step, (case, step) int: 0 the one on the left of the line between the two known
+    points (P→Q; B→D for the four-bar), 1 the one on the right; None for the other types.
     """
 
     topology: Topology
@@ -115,6 +161,7 @@ class RigidMotion:
     singular: np.ndarray
     guide_angle: dict[str, np.ndarray] | None = None
     slide: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+    branch: dict[str, np.ndarray] | None = None
 
     def link_point(self, link: str, s: np.ndarray | float, order: int = 0) -> np.ndarray:
         """Position (order 0), velocity (1) or acceleration (2) of the point at distance
@@ -213,13 +260,18 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def track_branch(
     candidates: np.ndarray, start_index: np.ndarray, touching: np.ndarray
 ) -> np.ndarray:
-    """Pick, step by step, the candidate angle that continues the motion smoothly.
+    """Pick, step by step, the candidate that continues the motion smoothly.
 
     ``candidates`` (2, case, step) are the two assembly solutions. The branches of a linkage
     touch only at a change point (S + L = P + Q, ``touching``); elsewhere the choice never
     changes, however close the branches come. Where they touch, the candidate nearest to the
     linear extrapolation of the last two steps is kept, so the motion passes straight through
     the singular configuration instead of reflecting off it. Deterministic.
+
+    Returns
+    -------
+    numpy.ndarray
+        The candidate chosen at every step, (case, step) int, 0 or 1 (:func:`pick` takes it).
     """
     ncase, nstep = candidates.shape[1:]
     choice = np.broadcast_to(start_index[:, None], (ncase, nstep)).copy()
@@ -229,20 +281,61 @@ def track_branch(
     if close.any() and nstep >= 3:
         close[close] = _branches_meet(candidates[0, close] - candidates[1, close])
     if not close.any() or nstep < 3:
-        return np.take_along_axis(candidates, choice[None], axis=0)[0]
+        return choice
     cand = candidates[:, close]
-    pick = choice[close]
+    index = choice[close]
     chosen = np.empty(cand.shape[1:])
     rows = np.arange(cand.shape[1])
-    chosen[:, 0] = cand[pick[:, 0], rows, 0]
-    chosen[:, 1] = cand[pick[:, 1], rows, 1]
+    chosen[:, 0] = cand[index[:, 0], rows, 0]
+    chosen[:, 1] = cand[index[:, 1], rows, 1]
     for k in range(2, nstep):
         predicted = 2.0 * chosen[:, k - 1] - chosen[:, k - 2]
         dist = np.abs(np.angle(np.exp(1j * (cand[:, :, k] - predicted))))
-        pick[:, k] = np.argmin(dist, axis=0)
-        chosen[:, k] = cand[pick[:, k], rows, k]
-    choice[close] = pick
+        index[:, k] = np.argmin(dist, axis=0)
+        chosen[:, k] = cand[index[:, k], rows, k]
+    choice[close] = index
+    return choice
+
+
+def follow_branch(candidates: np.ndarray, index: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The candidate given for every (case, time), instead of tracking them in sequence.
+
+    Parameters
+    ----------
+    candidates : numpy.ndarray
+        The two assembly solutions, (2, case, n), rad.
+    index : numpy.ndarray
+        The candidate to take, (case, n) int: 0 or 1, or −1 for the one nearest ``near``
+        (:func:`branch_between`).
+    near : numpy.ndarray
+        Angle the candidate is chosen by where ``index`` is −1, (case, n), rad (any turn).
+
+    Returns
+    -------
+    numpy.ndarray
+        The candidate chosen, (case, n) int, 0 or 1.
+    """
+    open_ = index < 0
+    if not open_.any():
+        return index
+    gap = np.abs(np.angle(np.exp(1j * (candidates[:, open_] - near[open_]))))
+    choice = index.copy()
+    choice[open_] = np.argmin(gap, axis=0)
+    return choice
+
+
+def pick(candidates: np.ndarray, choice: np.ndarray) -> np.ndarray:
+    """The candidates (2, case, n) chosen by ``choice`` (case, n), (case, n)."""
     return np.take_along_axis(candidates, choice[None], axis=0)[0]
+
+
+def choose_branch(candidates: np.ndarray, start_index: np.ndarray, touching: np.ndarray,
+                   follow: tuple | None) -> np.ndarray:
+    """:func:`track_branch` along the times, or, given ``follow`` (index, near), the choice
+    it gives (:func:`follow_branch`)."""
+    if follow is None:
+        return track_branch(candidates, start_index, touching)
+    return follow_branch(candidates, *follow)
 
 
 #: Smallest gap (rad) between the two branches of a case, over its steps, below which they
@@ -319,6 +412,7 @@ def four_bar(
     rocker: np.ndarray,
     motion: InputMotion,
     branch: np.ndarray,
+    follow: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> RigidMotion:
     """Closed-form four-bar kinematics with continuous branch tracking.
 
@@ -327,6 +421,10 @@ def four_bar(
     ground, crank, coupler, rocker : (case,) m
     motion : input (crank) angle, velocity, acceleration
     branch : (case,) +1 for ``open`` (C on the left of B→D at t = 0), −1 for ``crossed``.
+    follow : (index, near), each (case, step), optional
+        The coupler's assembly solution at each time, as :func:`follow_branch` takes it (from
+        :func:`branch_between` of a motion on a step grid), instead of tracking it along the
+        times from ``branch``: for times that are not a sequence of their own.
     """
     g, a, b, c = (np.asarray(x, float)[:, None] for x in (ground, crank, coupler, rocker))
     th2, w2, al2 = motion.angle, motion.velocity, motion.acceleration
@@ -356,7 +454,8 @@ def four_bar(
     ordered = np.sort(np.concatenate([g, a, b, c], axis=1), axis=1)
     s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
     touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
-    th3 = unwrap(track_branch(candidates, start, touching))
+    choice = choose_branch(candidates, start, touching, follow)
+    th3 = unwrap(pick(candidates, choice))
     c3, s3 = np.cos(th3), np.sin(th3)
     Cx = np.add(Bx, b * c3, out=P[:, :, 2, 0])
     Cy = np.add(By, b * s3, out=P[:, :, 2, 1])
@@ -399,6 +498,7 @@ def four_bar(
         joint_velocity=V,
         joint_acceleration=Acc,
         singular=singular,
+        branch={"coupler": choice},
     )
 
 

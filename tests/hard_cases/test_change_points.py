@@ -10,15 +10,21 @@ bitwise the same motion.
 import numpy as np
 import pytest
 
+from ced.fem.eigenproblem import natural_frequencies
 from ced.problem.mechanism import dyad_sine_min
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
+from ced.response.frequencies import cycle_frequencies, modal_phases
+from ced.response.model import build_model, terms_at
 from ced.simulation.simulate import simulate
 from tests.hard_cases.helpers import assert_finite, flags
 
 PARALLELOGRAM = {"type": "four_bar", "ground": 0.3, "crank": 0.1, "coupler": 0.3, "rocker": 0.1}
 # S + L = 0.1 + 0.4 = P + Q = 0.35 + 0.15: all four joints collinear at θ = π.
 CHANGE_POINT = {"type": "four_bar", "ground": 0.4, "crank": 0.1, "coupler": 0.35, "rocker": 0.15}
+# S + L = 0.25 + 0.4 = P + Q = 0.3 + 0.35, the ground shortest: a double crank whose branches
+# meet once a turn, at θ = 0 (the default study's change_point case 1691).
+DOUBLE_CRANK = {"type": "four_bar", "ground": 0.25, "crank": 0.3, "coupler": 0.4, "rocker": 0.35}
 
 
 def scene(mechanism, initial_angle=0.0, **time):
@@ -110,3 +116,35 @@ def test_change_point_instability_is_real_not_a_step_artefact():
         multipliers.append(float(ds.floquet_multiplier_max.values[0]))
     assert all(1.02 < mu < 1.05 for mu in multipliers)
     assert multipliers[1] == pytest.approx(multipliers[0], rel=0.01)
+
+
+def test_modal_frequencies_are_those_of_the_grid_motion():
+    # The modal phases are off the step grid (12 against 64 steps a turn). Solved as a
+    # sequence of their own, the double crank's phases past θ = 0 took the other branch, and
+    # their frequencies were the other configuration's (the cycle mirrored: at phase 3, on
+    # step 16, 60.6 / 147.6 / 202.1 Hz against the step's 49.7 / 129.3 / 255.1). Now each
+    # phase's frozen frequencies are the grid motion's: at the phases on a step (16, 32, 48)
+    # those of the step, and every phase's within the range of the four steps around it, to
+    # 1e-3 of their largest (the frequencies turn sharply just past the change point, where
+    # modes cross: linear interpolation would not do). Phase 0 is left out: it sits on the change point, where the
+    # velocities are interpolated across the times solved together.
+    s = scene(DOUBLE_CRANK)
+    s["drive"]["speed"] = 300.0
+    s["modal"] = {"modes": 3, "angles": 12}
+    model = build_model(make_batch([load_scene(s)]))
+    batch = model.batch
+    phases = modal_phases(12)
+    frequency = cycle_frequencies(model, phases, 3)[0]
+    grid = batch.step_size[:, None] * np.arange(66)[None, :]
+    terms, _ = terms_at(model, grid, model.effects - {"damping"}, frozenset({"elastic_mass"}))
+    on_grid = natural_frequencies(terms.stiffness, terms.elastic_mass, 3)[0]
+    position = phases / batch.speed[0] / batch.step_size[0]
+    lower = np.floor(position).astype(int)
+    for j in range(1, 12):
+        around = on_grid[lower[j] - 1:lower[j] + 3]
+        slack = 1e-3 * np.abs(around).max(axis=0)  # a peak between two steps
+        assert np.all(around.min(axis=0) - slack <= frequency[j]), j
+        assert np.all(frequency[j] <= around.max(axis=0) + slack), j
+    on_step = np.flatnonzero(position - lower < 1e-9)[1:]
+    assert list(on_step) == [3, 6, 9]
+    assert np.allclose(frequency[on_step], on_grid[lower[on_step]], rtol=1e-9, atol=0.0)

@@ -1,14 +1,22 @@
 """Batches of structurally identical scenes (ced.response.batch): the rigid motion on the step
-grid is one continuous motion, whatever window of steps is asked for."""
+grid is one continuous motion, whatever window of steps is asked for, and times off the grid
+are on its branches, however they are sampled."""
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
+from ced.response.frequencies import modal_phases
 
 #: S + L = 0.1 + 0.4 = P + Q = 0.35 + 0.15: the assembly's two branches meet at θ = π.
 CHANGE_POINT = {"type": "four_bar", "ground": 0.4, "crank": 0.1, "coupler": 0.35, "rocker": 0.15}
 CRANK_ROCKER = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
+#: S + L = 0.25 + 0.4 = P + Q = 0.3 + 0.35, the ground shortest: a double crank whose branches
+#: meet once a turn, at θ = 0 (the default study's change_point case 1691).
+DOUBLE_CRANK_CHANGE_POINT = {"type": "four_bar", "ground": 0.25, "crank": 0.3, "coupler": 0.4,
+                             "rocker": 0.35}
 WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
            "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
            "pivot2_x": 0.2, "pivot2_y": -0.3}
@@ -43,8 +51,65 @@ def test_windows_of_the_step_grid_are_the_one_continuous_motion(mechanism):
         assert np.abs(gap).max() > 1.0
 
 
-def test_times_off_the_grid_are_solved_as_given():
+def test_times_off_the_grid_of_a_batch_without_change_point_are_solved_as_given():
     batch = _batch(CRANK_ROCKER)
     times = batch.step_size[:, None] * np.array([0.5, 3.25, 7.0])[None, :]
     fresh = _batch(CRANK_ROCKER)._solve_motion(times)
-    assert np.array_equal(batch.rigid_motion(times).link_angle, fresh.link_angle)
+    got = batch.rigid_motion(times)
+    assert np.array_equal(got.link_angle, fresh.link_angle)
+    assert np.array_equal(got.joint_acceleration, fresh.joint_acceleration)
+
+
+def _wrapped(angle):
+    return np.angle(np.exp(1j * angle))
+
+
+def _assert_on_the_grid_motion(batch, times):
+    """The motion at ``times`` (case, n) is the grid motion's: each link angle within the
+    error of linear interpolation between the steps around it, h² |θ''|max / 8, taken as
+    |Δ²θ|max / 4 (the second differences average θ'', which peaks between the steps just past
+    the change point; a time on the other configuration is O(1) off), the same whether a time is asked for alone or in a
+    sequence (the sampling does not choose the branch: the same to round-off, the angles
+    unwrapped along different sequences)."""
+    got = batch.rigid_motion(times)
+    position = times / batch.step_size[:, None]  # within the two turns of 64 steps
+    grid = _at(batch, np.arange(129))
+    lower = np.floor(position).astype(int)
+    rows = np.arange(batch.size)[:, None]
+    fraction = (position - lower)[..., None]
+    before, after = grid.link_angle[rows, lower], grid.link_angle[rows, lower + 1]
+    interpolated = before + fraction * (after - before)
+    curvature = np.abs(np.diff(grid.link_angle, 2, axis=1)).max(axis=1)[:, None]
+    assert np.all(np.abs(_wrapped(got.link_angle - interpolated)) <= curvature / 4 + 1e-9)
+    for j in range(times.shape[1]):
+        alone = batch.rigid_motion(times[:, j:j + 1])
+        assert np.abs(_wrapped(alone.link_angle[:, 0] - got.link_angle[:, j])).max() < 1e-12
+        assert np.abs(alone.joint_position[:, 0] - got.joint_position[:, j]).max() < 1e-12
+
+
+@pytest.mark.parametrize("mechanism", [DOUBLE_CRANK_CHANGE_POINT, CHANGE_POINT],
+                         ids=["double_crank_change_point", "change_point"])
+def test_modal_phases_are_on_the_grid_motions_branch(mechanism):
+    # The modal analysis's 12 phases against 64 steps a turn: solved as a sequence of their
+    # own, the double crank's phases 2 to 11 took the other branch past θ = 0 (its coupler up
+    # to 2.1 rad off the continuous motion's), and a phase solved alone started again on the
+    # scene's branch.
+    batch = _batch(mechanism)
+    times = modal_phases(12)[None, :] / batch.speed[:, None]
+    _assert_on_the_grid_motion(batch, times)
+
+
+@pytest.mark.parametrize("mechanism", [DOUBLE_CRANK_CHANGE_POINT, CHANGE_POINT],
+                         ids=["double_crank_change_point", "change_point"])
+@given(positions=st.lists(st.floats(0.0, 127.9), min_size=1, max_size=40, unique=True),
+       fine=st.booleans())
+@settings(max_examples=25, deadline=None)
+def test_random_times_off_the_grid_are_on_the_grid_motions_branch(mechanism, positions, fine):
+    # Any times in the two turns, in steps of the grid, coarse or fine (a dense run of 200
+    # times after each drawn one), on the motion the grid takes there.
+    batch = _batch(mechanism)
+    positions = np.sort(positions)
+    if fine:
+        positions = np.unique(np.clip(positions[:, None] + np.linspace(0.0, 0.9, 5)[None, :],
+                                      0.0, 127.9))
+    _assert_on_the_grid_motion(batch, batch.step_size[:, None] * positions[None, :])
