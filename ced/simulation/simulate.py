@@ -39,7 +39,8 @@ def _as_list(scenes) -> list:
     return list(scenes)
 
 
-def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:
+def solve_batch(batch: Batch, peaks_only: bool = False,
+                allocate=None) -> dict[str, np.ndarray]:
     """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
@@ -55,6 +56,9 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
         Structurally identical cases (:func:`ced.response.batch.make_batch`).
     peaks_only : bool, optional
         Return the elastic peaks and the status only.
+    allocate : callable, optional
+        ``allocate(name, shape, dtype)`` gives the arrays the station fields of a batch
+        solved in one part are written into (:func:`_into`; default: new arrays).
 
     Returns
     -------
@@ -63,7 +67,7 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     """
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
-        return _solve_part(batch, peaks_only)
+        return _solve_part(batch, peaks_only, allocate)
     out: dict[str, np.ndarray] = {}
     for first in range(0, batch.size, limit):
         part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only,
@@ -200,11 +204,12 @@ def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
         messages[case] = f"failed: non-finite {', '.join(names)}: {cause}"
 
 
-def _solve_isolated(batch: Batch,
-                    peaks_only: bool = False) -> tuple[dict[str, np.ndarray], list[str]]:
-    """Solve a batch; if it fails, solve its cases one by one and record the failures."""
+def _solve_isolated(batch: Batch, peaks_only: bool = False,
+                    allocate=None) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Solve a batch (its station fields into ``allocate``'s arrays, :func:`solve_batch`);
+    if it fails, solve its cases one by one and record the failures."""
     try:
-        result, messages = solve_batch(batch, peaks_only), [""] * batch.size
+        result, messages = solve_batch(batch, peaks_only, allocate), [""] * batch.size
         _fail_nonfinite(result, messages)
         return result, messages
     except Exception:  # noqa: BLE001 — isolate the failing case(s) below
@@ -246,11 +251,15 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
     solved = []
     for group in groups.values():
         limit = cases_per_solve(scenes[group[0]])  # parts of bounded memory, failures isolated
+        # The parts write their station fields into the group's arrays (_in_order then has
+        # nothing to copy where the group holds the run's cases in order).
+        fields: dict[str, np.ndarray] = {}
         for first in range(0, len(group), limit):
             indices = group[first:first + limit]
             batch = make_batch([scenes[i] for i in indices])
             start = _time.perf_counter()
-            result, messages = _solve_isolated(batch, peaks_only)
+            result, messages = _solve_isolated(batch, peaks_only,
+                                               _into(fields, len(group), first))
             seconds = (_time.perf_counter() - start) / batch.size
             solved.append((batch, indices, result, (messages, seconds)))
     return solved
@@ -258,14 +267,29 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
 
 def _in_order(parts: list[np.ndarray], solved: list[tuple]) -> np.ndarray:
     """One variable of the solved groups in the caller's order of cases, copied once (not at
-    all when a single group holds the cases in order: the histories are most of the memory)."""
+    all when a single group holds the cases in order, in one part or in parts written into
+    one array (:func:`_solve_groups`): the histories are most of the memory)."""
     indices = [np.asarray(ix) for _, ix, _, _ in solved]
-    if len(parts) == 1 and np.array_equal(indices[0], np.arange(len(indices[0]))):
-        return parts[0]
+    total = sum(len(ix) for ix in indices)
+    if np.array_equal(np.concatenate(indices), np.arange(total)):
+        if len(parts) == 1:
+            return parts[0]
+        whole = parts[0].base
+        if (isinstance(whole, np.ndarray) and len(whole) == total
+                and all(_is_rows(part, whole, first) for part, first in
+                        zip(parts, np.cumsum([0] + [len(ix) for ix in indices[:-1]])))):
+            return whole
     out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:], parts[0].dtype)
     for ix, part in zip(indices, parts):
         out[ix] = part
     return out
+
+
+def _is_rows(part: np.ndarray, whole: np.ndarray, first: int) -> bool:
+    """``part`` is the view ``whole[first:first + len(part)]``."""
+    rows = whole[first:first + len(part)]
+    return (part.base is whole and part.shape == rows.shape and part.strides == rows.strides
+            and part.__array_interface__["data"][0] == rows.__array_interface__["data"][0])
 
 
 def _case_peak(peak_stress: np.ndarray) -> np.ndarray:
