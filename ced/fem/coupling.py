@@ -29,6 +29,7 @@ P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
 """
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 
@@ -59,6 +60,10 @@ class Layout:
     constraints : list of (rigid link, "axial" | "prismatic", owned (joint, component)):
         a rigid link's inextensibility, or the constraint of an RPR guide bar's rotation to
         its sleeve's (see the module docstring)
+
+    The derived offsets and coordinate lists are worked out once per layout (cached
+    properties: a terms evaluation reads them a few dozen times, ~0.1 ms each for a six-bar's
+    ``interior_dofs``); the layout is not changed after :func:`build_layout`, nor are they.
     """
 
     topology: Topology
@@ -70,7 +75,7 @@ class Layout:
     coordinate_kind: dict[tuple[str, int], str]
     constraints: list[tuple[str, str, tuple[str, int]]]
 
-    @property
+    @functools.cached_property
     def link_offsets(self) -> dict[str, int]:
         out, k = {}, 0
         for name in self.topology.links:
@@ -78,20 +83,20 @@ class Layout:
             k += self.link_sizes[name]
         return out
 
-    @property
+    @functools.cached_property
     def joint_offsets(self) -> dict[str, int]:
         base = sum(self.link_sizes.values())
         return {j: base + 2 * i for i, j in enumerate(self.topology.joints)}
 
-    @property
+    @functools.cached_property
     def nz(self) -> int:
         return sum(self.link_sizes.values()) + 2 * len(self.topology.joints)
 
-    @property
+    @functools.cached_property
     def free_coordinates(self) -> list[tuple[str, int]]:
         return [key for key, kind in self.coordinate_kind.items() if kind == "free"]
 
-    @property
+    @functools.cached_property
     def interior_dofs(self) -> list[tuple[str, int]]:
         """(link, local index) of every flexible-link DOF that is its own unknown in y."""
         out = []
@@ -105,7 +110,7 @@ class Layout:
                 out.append((name, i))
         return out
 
-    @property
+    @functools.cached_property
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
