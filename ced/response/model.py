@@ -25,7 +25,6 @@ from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients,
                                 split_order, system_terms)
 from ..fem.eigenproblem import natural_frequencies
 from ..problem.errors import SceneError
-from ..rigid.inverse_dynamics import inverse_dynamics
 from .batch import Batch
 
 __all__ = ["Model", "build_model", "terms_at", "StepTerms"]
@@ -376,7 +375,7 @@ def terms_at(
     loads, axial = {}, {} if "axial_stiffening" in effects else None
     forces = sleeve_forces = None
     if axial is not None:
-        rigid = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia)
+        rigid = batch.rigid_forces(times, has_inertia, gravity, motion)
         forces, sleeve_forces = rigid.joint_force, rigid.sleeve_force
     carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
     for i, name in enumerate(topo.links):

@@ -26,7 +26,6 @@ from ..response.batch import Batch, make_batch, structure_key
 from ..response.elastic import elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
 from ..response.model import build_model
-from ..rigid.inverse_dynamics import inverse_dynamics
 from .dataset import VARIABLES, case_coordinates, make_dataset
 from .size import cases_per_solve, check_run_memory
 
@@ -133,8 +132,9 @@ def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], 
     period = scene["time"]["steps_per_revolution"]
     solved = np.arange(min(batch.n_steps, period) + 1)
     steps = np.arange(0, batch.n_steps + 1, every)
-    motion = batch.rigid_motion(batch.step_size[:, None] * solved[None, :])
-    forces = inverse_dynamics(motion, batch.bodies, batch.gravity, inertia=inertia)
+    times = batch.step_size[:, None] * solved[None, :]
+    motion = batch.rigid_motion(times)
+    forces = batch.rigid_forces(times, inertia, motion=motion)
     if batch.n_steps <= period:  # every output step was solved
         j = steps
         angle = motion.link_angle[:, j]
