@@ -9,9 +9,11 @@ Shapes as in :mod:`ced.rigid.kinematics`: lengths (case,), motion (case, step).
 """
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from ..problem.linkage import linkage_topology
+from . import kinematics
 from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, fill_singular, perp,
                          track_branch, unit, unwrap)
 
@@ -65,6 +67,29 @@ def _point_motion(base, trig, velocity, acceleration, local, out) -> None:
     np.add(base[1][..., 1], w * rx, out=out[1][..., 1])
     np.subtract(base[2][..., 0] + al * -ry, ww * rx, out=out[2][..., 0])
     np.subtract(base[2][..., 1] + al * rx, ww * ry, out=out[2][..., 1])
+
+
+@nb.njit(cache=True, nogil=True)
+def _point_rows(joints, base, tip, c, s, w, al, local):
+    """:func:`_point_motion` of joint ``tip`` from joint ``base`` of the joint motion
+    ``joints`` (position, velocity, acceleration, each (case, step, joint, 2), C-contiguous),
+    in place, with its arithmetic operation for operation: one pass instead of a dozen numpy
+    calls on strided (case, step) views (a six-bar places four joints so; the same bits).
+    ``c``, ``s``, ``w``, ``al`` (case, step) the frame's cos θ, sin θ, ω, α; ``local``
+    (case, 2) m."""
+    P, V, A = joints
+    for i in range(c.shape[0]):
+        x, y = local[i, 0], local[i, 1]
+        for k in range(c.shape[1]):
+            ck, sk, wk, ak = c[i, k], s[i, k], w[i, k], al[i, k]
+            rx, ry = x * ck + y * -sk, x * sk + y * ck
+            ww = wk * wk
+            P[i, k, tip, 0] = P[i, k, base, 0] + rx
+            P[i, k, tip, 1] = P[i, k, base, 1] + ry
+            V[i, k, tip, 0] = V[i, k, base, 0] + wk * -ry
+            V[i, k, tip, 1] = V[i, k, base, 1] + wk * rx
+            A[i, k, tip, 0] = (A[i, k, base, 0] + ak * -ry) - ww * rx
+            A[i, k, tip, 1] = (A[i, k, base, 1] + ak * rx) - ww * ry
 
 
 def _rrr(P, Q, l1, l2, branch):
@@ -169,6 +194,7 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
     joint_motion = tuple(np.zeros(shape + (len(topo.joint_names), 2)) for _ in range(3))
     known: dict[str, tuple] = {
         name: tuple(x[:, :, j] for x in joint_motion) for j, name in enumerate(topo.joint_names)}
+    index = {name: j for j, name in enumerate(topo.joint_names)}
     placed = set(first["ground"])
     for name in placed & set(known):
         known[name][0][...] = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
@@ -194,7 +220,12 @@ def linkage(descriptions: list[dict], motion: InputMotion) -> RigidMotion:
             trig[link] = (np.cos(angles[link][0]), np.sin(angles[link][0]))
         for name, xy in local.items():
             if name not in placed and name in known:
-                _point_motion(start, trig[link], *angles[link][1:], xy, known[name])
+                if kinematics.COMPILED:
+                    _point_rows(joint_motion, index[topo.links[link][0]], index[name],
+                                *(np.require(x, float, "C") for x in (*trig[link],
+                                                                      *angles[link][1:], xy)))
+                else:
+                    _point_motion(start, trig[link], *angles[link][1:], xy, known[name])
                 placed.add(name)
 
     place(inp["link"])
