@@ -100,7 +100,7 @@ def _solve_part(batch: Batch, peaks_only: bool = False,
     if peaks_only:  # a pilot or a companion: only the elastic peaks are read from it
         out, singular = {}, _singular(batch)
     else:
-        out, singular = _rigid_outputs(batch, "inertia" in effects)
+        out, singular = _rigid_outputs(batch, "inertia" in effects, allocate)
     flags = np.zeros(batch.size, STATUS_DTYPE)
     flags[singular] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
@@ -120,12 +120,15 @@ def _singular(batch: Batch) -> np.ndarray:
     return batch.rigid_motion(batch.step_size[:, None] * solved[None, :]).singular.any(axis=1)
 
 
-def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def _rigid_outputs(batch: Batch, inertia: bool,
+                   allocate=None) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Rigid motion and inverse dynamics at the output steps, and the cases whose
     transmission is singular somewhere (case,).
 
     The motion repeats every input period (steps_per_revolution steps): it is solved over one
     period and repeated, the link angles advanced by the turns each link makes per period.
+    Each output is gathered from the solved steps straight into the array ``allocate``
+    gives (:func:`_into`: the run's output, not copied again), or a new one.
     """
     scene = batch.scenes[0]
     every = scene["outputs"]["every"]
@@ -135,27 +138,38 @@ def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], 
     times = batch.step_size[:, None] * solved[None, :]
     motion = batch.rigid_motion(times)
     forces = batch.rigid_forces(times, inertia, motion=motion)
+    out: dict[str, np.ndarray] = {}
+
+    def put(name: str, x: np.ndarray, at: np.ndarray | None) -> None:
+        """out[name] = x at the output steps ``at`` of its step axis (None: x as it is)."""
+        shape = (x.shape[0], len(steps)) + x.shape[2:]
+        out[name] = (np.empty(shape, x.dtype) if allocate is None
+                     else allocate(name, shape, x.dtype))
+        if at is None:
+            out[name][...] = x
+        else:  # "clip" (the steps are in range) gathers without a buffer
+            np.take(x, at, axis=1, out=out[name], mode="clip")
+
     if batch.n_steps <= period:  # every output step was solved
         j = steps
-        angle = motion.link_angle[:, j]
+        angle, angle_at = motion.link_angle, j
     else:
         j, turns = steps % period, steps // period
         per_period = np.round((motion.link_angle[:, period] - motion.link_angle[:, 0])
                               / (2.0 * np.pi))
         angle = (motion.link_angle[:, j]
                  + 2.0 * np.pi * turns[None, :, None] * per_period[:, None, :])
-    out = {
-        "time": batch.step_size[:, None] * steps[None, :],
-        "crank_angle": angle[:, :, 0],
-        "joint_position": motion.joint_position[:, j],
-        "link_angle": angle,
-        "link_angular_velocity": motion.link_angular_velocity[:, j],
-        "link_angular_acceleration": motion.link_angular_acceleration[:, j],
-        "joint_force": forces.joint_force[:, j],
-        "input_torque": forces.input_torque[:, j],
-    }
+        angle_at = None
+    put("time", batch.step_size[:, None] * steps[None, :], None)
+    put("crank_angle", angle[:, :, 0], angle_at)
+    put("joint_position", motion.joint_position, j)
+    put("link_angle", angle, angle_at)
+    put("link_angular_velocity", motion.link_angular_velocity, j)
+    put("link_angular_acceleration", motion.link_angular_acceleration, j)
+    put("joint_force", forces.joint_force, j)
+    put("input_torque", forces.input_torque, j)
     if forces.guide_force is not None:
-        out["guide_force"] = forces.guide_force[:, j]
+        put("guide_force", forces.guide_force, j)
     return out, motion.singular.any(axis=1)
 
 
