@@ -395,8 +395,7 @@ def projection(
         solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
 
     P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
-    joint_rows = np.array([off + a for off in layout.joint_offsets.values() for a in (0, 1)],
-                          np.int64)
+    joint_rows = _joint_rows(layout)
     _assemble(H, np.array(free_cols, np.int64), np.array(own, np.int64), solve, every,
               _link_ends(layout), _link_rows(layout), np.ascontiguousarray(lengths, dtype=float),
               nstep, joint_rows, P)
@@ -420,6 +419,16 @@ def _link_ends(layout: Layout) -> np.ndarray:
                     np.int64).reshape(-1, 2)
 
 
+def _joint_rows(layout: Layout) -> np.ndarray:
+    """(2·joint,) int: the z row of each joint translation component, −1 for a joint that
+    does not move (no free or owned coordinate, not at a point: a ground pivot, a clamped
+    input's tip), whose rows of P are zero."""
+    moving = ("free", "own", "point")
+    return np.array([off + a if any(layout.coordinate_kind[(j, b)] in moving for b in (0, 1))
+                     else -1 for j, off in layout.joint_offsets.items() for a in (0, 1)],
+                    np.int64)
+
+
 def _link_rows(layout: Layout) -> np.ndarray:
     """(link, 4) int: the z rows a link's end translations go to, in its frame: a flexible
     link's (u, v) at its first end then at its second; a rigid link's (u0, v0, φ, −1)."""
@@ -437,8 +446,9 @@ def _assemble(H, free, own, solve, rot, ends, rows, lengths, nstep, joint_rows, 
     """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point
     (:func:`_assemble_point`) from ``H`` (3, 2·joints, nx, point), ``solve``
     (3, owned, nfree, point) and ``rot`` (3, 2, 2, link, point), which may have more points
-    than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case."""
-    U = np.empty((3, H.shape[1], free.shape[0]))
+    than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case; P zero on
+    entry."""
+    U = np.zeros((3, H.shape[1], free.shape[0]))
     for p in range(P.shape[1]):
         _assemble_point(H[:, :, :, p], free, own, solve[:, :, :, p], rot[:, :, :, :, p], ends,
                         rows, lengths[p // nstep], joint_rows, P, p, U)
@@ -451,9 +461,17 @@ def _assemble_point(H, free, own, solve, rot, ends, rows, lengths, joint_rows, P
     H[free] + H[own] solve) and each link's end translations in its frame, Rᵀ U, with their
     two time derivatives (Leibniz). ``H`` (3, 2·joints, nx), ``solve`` (3, owned, nfree),
     ``rot`` (3, 2, 2, link), ``lengths`` (link,) m at the point; ``U`` (3, 2·joints, nfree)
-    is scratch."""
+    is scratch, zero on entry; ``joint_rows`` (2·joints,) the joints' z rows (−1: a joint
+    that does not move, :func:`_joint_rows`).
+
+    A joint that does not move is skipped, and so are the link ends on it: their rows would
+    be +0.0 (U is +0.0 there, and r·(+0.0) summed from +0.0 is +0.0), which P and U hold
+    already; so are a rigid link's second-end rows it does not use. The same bits as
+    computing them, a third to a half of the work (the ground pivots)."""
     nj2, nf, nc = H.shape[1], free.shape[0], own.shape[0]
     for r in range(nj2):
+        if joint_rows[r] < 0:
+            continue
         for f in range(nf):
             u0, u1, u2 = H[0, r, free[f]], H[1, r, free[f]], H[2, r, free[f]]
             for c in range(nc):
@@ -467,9 +485,14 @@ def _assemble_point(H, free, own, solve, rot, ends, rows, lengths, joint_rows, P
                 P[d, p, joint_rows[r], f] = U[d, r, f]
     for i in range(ends.shape[0]):
         rigid = rows[i, 3] < 0
+        moving = (joint_rows[2 * ends[i, 0]] >= 0, joint_rows[2 * ends[i, 1]] >= 0)
         for e in range(2):
             k = 2 * ends[i, e]
+            if not (moving[e] or (rigid and e == 1 and moving[0])):
+                continue  # zero rows (a rigid link's φ is not if its first end moves)
             for a in range(2):  # (Rᵀ U)[a] = Σ_b R[b, a] U[b]
+                if rigid and e == 1 and a == 0:
+                    continue  # not used: φ takes the transverse component
                 for f in range(nf):
                     v0 = v1 = v2 = 0.0
                     for b in range(2):
@@ -484,7 +507,7 @@ def _assemble_point(H, free, own, solve, rot, ends, rows, lengths, joint_rows, P
                     elif e == 0:  # (u0, v0): the first end's translation
                         row = rows[i, a]
                         P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
-                    elif a == 1:  # φ = e⊥ᵀ(Us − Uf)/L
+                    else:  # φ = e⊥ᵀ(Us − Uf)/L
                         L = lengths[i]
                         row, first = rows[i, 2], rows[i, 1]
                         P[0, p, row, f] = (v0 - P[0, p, first, f]) / L
@@ -535,8 +558,7 @@ def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.nda
                            for name, _, _ in layout.constraints], np.int64).reshape(-1, 3)
     free = np.array([col[key] for key in layout.free_coordinates], np.int64)
     own = np.array([col[c[2]] for c in layout.constraints], np.int64)
-    joint_rows = np.array([off + a for off in layout.joint_offsets.values() for a in (0, 1)],
-                          np.int64)
+    joint_rows = _joint_rows(layout)
     flat = lambda x: np.require(x, float, "C").reshape(ncase * nstep, -1)  # noqa: E731
     P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
     _project(flat(np.cos(link_angle)), flat(np.sin(link_angle)), flat(link_velocity),
@@ -560,7 +582,7 @@ def _project(cos, sin, w, al, nstep, frame, guide, column, nx, point, xy, constr
     H = np.empty((3, 2 * njoint, nx))
     R = np.empty((3, max(nc, 1), nx))
     solve = np.empty((3, nc, nf))
-    U = np.empty((3, 2 * njoint, nf))
+    U = np.zeros((3, 2 * njoint, nf))  # the rows of joints that do not move stay zero
     e, n, wv = np.empty((3, 2)), np.empty((3, 2)), np.empty((3, 2))
     D, phi = np.empty((3, 2)), np.empty(3)
     for p in range(P.shape[1]):
