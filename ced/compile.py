@@ -12,7 +12,7 @@ Every kernel is called with one type signature whatever the scene (checked by
 ``tests/test_compile.py`` on the default study's scene, a start transient, the other
 integrators, formulations and mechanisms): one small periodic scene solved by the spectral
 solver with its error estimate reaches all of them but those on sparse step matrices, which
-the same scene with every FE DOF reaches, and a rigid six-bar those of a linkage of dyads.
+the same scene with every FE DOF reaches, and a coarse six-bar those of a linkage of dyads.
 """
 from __future__ import annotations
 
@@ -48,13 +48,14 @@ WARM_UP_SPARSE = {**WARM_UP_SCENE,
                   "discretization": {**WARM_UP_SCENE["discretization"], "modes_per_link": 0},
                   "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 128}}
 
-#: A six-bar (a linkage of dyads, rigid: its kinematics alone), whose joints placed from a
-#: link's frame take the compiled loop of :mod:`ced.rigid.dyads` the four-bars do not reach.
+#: A six-bar (a linkage of dyads with a ternary link), coarse: the compiled loops of its
+#: kinematics (:mod:`ced.rigid.dyads`) and of its ternary link's loads
+#: (:mod:`ced.response.model`), which the four-bars do not reach.
 WARM_UP_SIX_BAR = {
     "mechanism": {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                   "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4,
                   "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3},
-    "discretization": {"formulation": "rigid"},
+    "discretization": {"formulation": "euler_bernoulli", "elements_per_link": 2},
     "time": {"revolutions": 1, "steps_per_revolution": 64},
 }
 
