@@ -12,14 +12,14 @@ Every kernel is called with one type signature whatever the scene (checked by
 ``tests/test_compile.py`` on the default study's scene, a start transient, the other
 integrators, formulations and mechanisms): one small periodic scene solved by the spectral
 solver with its error estimate reaches all of them but those on sparse step matrices, which
-the same scene with every FE DOF reaches.
+the same scene with every FE DOF reaches, and a coarse six-bar those of a linkage of dyads.
 """
 from __future__ import annotations
 
 import importlib
 import pkgutil
 
-__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_SPARSE"]
+__all__ = ["compile_kernels", "kernels", "WARM_UP_SCENE", "WARM_UP_SPARSE", "WARM_UP_SIX_BAR"]
 
 #: Solved by :func:`compile_kernels`: the default study's base scene (spectral periodic state,
 #: Craig–Bampton links, Floquet analysis by shooting, forced-resonance check, modal analysis,
@@ -47,6 +47,17 @@ WARM_UP_SPARSE = {**WARM_UP_SCENE,
                   "damping": {"model": "rayleigh", "alpha": 1.0, "beta": 1e-5},
                   "discretization": {**WARM_UP_SCENE["discretization"], "modes_per_link": 0},
                   "time": {**WARM_UP_SCENE["time"], "steps_per_revolution": 128}}
+
+#: A six-bar (a linkage of dyads with a ternary link), coarse: the compiled loops of its
+#: kinematics (:mod:`ced.rigid.dyads`) and of its ternary link's loads
+#: (:mod:`ced.response.model`), which the four-bars do not reach.
+WARM_UP_SIX_BAR = {
+    "mechanism": {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                  "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4,
+                  "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3},
+    "discretization": {"formulation": "euler_bernoulli", "elements_per_link": 2},
+    "time": {"revolutions": 1, "steps_per_revolution": 64},
+}
 
 
 def kernels() -> dict[str, object]:
@@ -87,4 +98,5 @@ def compile_kernels() -> dict[str, int]:
 
     simulate(WARM_UP_SCENE)
     simulate(WARM_UP_SPARSE)
+    simulate(WARM_UP_SIX_BAR)
     return {name: len(kernel.signatures) for name, kernel in kernels().items()}

@@ -178,12 +178,12 @@ def test_compile_solves_the_warm_up_scenes_and_says_so(capsys, monkeypatch):
     # ced compile solves the warm-up scenes through simulate (which compiles, or loads from
     # numba's cache, every kernel) and reports it; exit 0.
     import ced.simulation.simulate as simulation
-    from ced.compile import WARM_UP_SCENE, WARM_UP_SPARSE
+    from ced.compile import WARM_UP_SCENE, WARM_UP_SIX_BAR, WARM_UP_SPARSE
 
     solved = []
     real = simulation.simulate
     monkeypatch.setattr(simulation, "simulate",
                         lambda scenes: solved.append(scenes) or real(scenes))
     assert main(["compile"]) == 0
-    assert solved == [WARM_UP_SCENE, WARM_UP_SPARSE]
+    assert solved == [WARM_UP_SCENE, WARM_UP_SPARSE, WARM_UP_SIX_BAR]
     assert "kernels compiled, or loaded from numba's cache, in" in capsys.readouterr().out

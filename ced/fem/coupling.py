@@ -29,6 +29,8 @@ P, Ṗ, P̈ are exact (see :mod:`ced.fem.jets`).
 """
 from __future__ import annotations
 
+import functools
+import os
 from dataclasses import dataclass
 
 import numba as nb
@@ -58,6 +60,10 @@ class Layout:
     constraints : list of (rigid link, "axial" | "prismatic", owned (joint, component)):
         a rigid link's inextensibility, or the constraint of an RPR guide bar's rotation to
         its sleeve's (see the module docstring)
+
+    The derived offsets and coordinate lists are worked out once per layout (cached
+    properties: a terms evaluation reads them a few dozen times, ~0.1 ms each for a six-bar's
+    ``interior_dofs``); the layout is not changed after :func:`build_layout`, nor are they.
     """
 
     topology: Topology
@@ -69,7 +75,7 @@ class Layout:
     coordinate_kind: dict[tuple[str, int], str]
     constraints: list[tuple[str, str, tuple[str, int]]]
 
-    @property
+    @functools.cached_property
     def link_offsets(self) -> dict[str, int]:
         out, k = {}, 0
         for name in self.topology.links:
@@ -77,20 +83,20 @@ class Layout:
             k += self.link_sizes[name]
         return out
 
-    @property
+    @functools.cached_property
     def joint_offsets(self) -> dict[str, int]:
         base = sum(self.link_sizes.values())
         return {j: base + 2 * i for i, j in enumerate(self.topology.joints)}
 
-    @property
+    @functools.cached_property
     def nz(self) -> int:
         return sum(self.link_sizes.values()) + 2 * len(self.topology.joints)
 
-    @property
+    @functools.cached_property
     def free_coordinates(self) -> list[tuple[str, int]]:
         return [key for key, kind in self.coordinate_kind.items() if kind == "free"]
 
-    @property
+    @functools.cached_property
     def interior_dofs(self) -> list[tuple[str, int]]:
         """(link, local index) of every flexible-link DOF that is its own unknown in y."""
         out = []
@@ -104,7 +110,7 @@ class Layout:
                 out.append((name, i))
         return out
 
-    @property
+    @functools.cached_property
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
@@ -261,6 +267,19 @@ def _frame_jets(layout: Layout, link_rot: dict[str, np.ndarray], per_case,
     return out
 
 
+def _point_order(topo: Topology) -> list[str]:
+    """The joints at points of rigid links, in an order where each link's ends are known
+    first (a point's link may hang from another point)."""
+    order, todo = [], [j for j in topo.joints if j in topo.points]
+    while todo:
+        ready = [j for j in todo if not {*topo.links[topo.points[j]]} & set(todo)]
+        if not ready:
+            raise ValueError(f"joints {todo}: points of links that hang from each other")
+        order += ready
+        todo = [j for j in todo if j not in ready]
+    return order
+
+
 def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
                 points: dict[str, np.ndarray], per_case) -> None:
     """Fill the rows of H (3, 2·joints, nx, points) of joints at points of rigid links:
@@ -269,24 +288,18 @@ def _point_rows(layout: Layout, H: np.ndarray, rot: dict, lengths: np.ndarray,
     topo = layout.topology
     joints = list(topo.joints)
     rows = {j: slice(2 * k, 2 * k + 2) for k, j in enumerate(joints)}
-    todo = [j for j in joints if j in topo.points]
-    while todo:
-        ready = [j for j in todo if not {*topo.links[topo.points[j]]} & set(todo)]
-        if not ready:
-            raise ValueError(f"joints {todo}: points of links that hang from each other")
-        for j in ready:
-            link = topo.points[j]
-            i = topo.link_names.index(link)
-            first, second = topo.links[link]
-            R = rot[link]
-            e, n = R[:, :, 0:1], R[:, :, 1:2]
-            xy = np.asarray(points[j], float)
-            w = per_case(xy[:, 0]) * n - per_case(xy[:, 1]) * e
-            Hf = H[:, rows[first]]
-            phi = jets.matmul_points(jets.transpose_points(n), H[:, rows[second]] - Hf)
-            phi = phi / per_case(lengths[:, i])
-            H[:, rows[j]] = Hf + jets.matmul_points(w, phi)
-            todo.remove(j)
+    for j in _point_order(topo):
+        link = topo.points[j]
+        i = topo.link_names.index(link)
+        first, second = topo.links[link]
+        R = rot[link]
+        e, n = R[:, :, 0:1], R[:, :, 1:2]
+        xy = np.asarray(points[j], float)
+        w = per_case(xy[:, 0]) * n - per_case(xy[:, 1]) * e
+        Hf = H[:, rows[first]]
+        phi = jets.matmul_points(jets.transpose_points(n), H[:, rows[second]] - Hf)
+        phi = phi / per_case(lengths[:, i])
+        H[:, rows[j]] = Hf + jets.matmul_points(w, phi)
 
 
 def projection(
@@ -320,6 +333,9 @@ def projection(
     """
     topo = layout.topology
     ncase, nstep = shape = link_angle.shape[:2]
+    if COMPILED and not topo.sleeves and len(layout.constraints) <= 1:
+        return _projection_compiled(layout, lengths, link_angle, link_velocity,
+                                    link_acceleration, points, guide_angle)
     names = topo.link_names
     # Every jet below has its (case, step) points flattened on the last axis
     # (jets.matmul_points): the products are of 2 × 2 rotations and a few columns, cheap per
@@ -379,8 +395,7 @@ def projection(
         solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
 
     P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
-    joint_rows = np.array([off + a for off in layout.joint_offsets.values() for a in (0, 1)],
-                          np.int64)
+    joint_rows = _joint_rows(layout)
     _assemble(H, np.array(free_cols, np.int64), np.array(own, np.int64), solve, every,
               _link_ends(layout), _link_rows(layout), np.ascontiguousarray(lengths, dtype=float),
               nstep, joint_rows, P)
@@ -404,6 +419,16 @@ def _link_ends(layout: Layout) -> np.ndarray:
                     np.int64).reshape(-1, 2)
 
 
+def _joint_rows(layout: Layout) -> np.ndarray:
+    """(2·joint,) int: the z row of each joint translation component, −1 for a joint that
+    does not move (no free or owned coordinate, not at a point: a ground pivot, a clamped
+    input's tip), whose rows of P are zero."""
+    moving = ("free", "own", "point")
+    return np.array([off + a if any(layout.coordinate_kind[(j, b)] in moving for b in (0, 1))
+                     else -1 for j, off in layout.joint_offsets.items() for a in (0, 1)],
+                    np.int64)
+
+
 def _link_rows(layout: Layout) -> np.ndarray:
     """(link, 4) int: the z rows a link's end translations go to, in its frame: a flexible
     link's (u, v) at its first end then at its second; a rigid link's (u0, v0, φ, −1)."""
@@ -418,49 +443,228 @@ def _link_rows(layout: Layout) -> np.ndarray:
 
 @nb.njit(cache=True, nogil=True)
 def _assemble(H, free, own, solve, rot, ends, rows, lengths, nstep, joint_rows, P):
-    """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point:
-    the joint translations U = H E (E: the identity on the free coordinates, ``solve`` on
-    the owned ones: H[free] + H[own] solve) and each link's end translations in its frame,
-    Rᵀ U, with their two time derivatives (Leibniz). ``rot`` (3, 2, 2, link, point), ``H``
-    (3, 2·joints, nx, point) and ``solve`` (3, owned, nfree, point) may have more points
-    than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case."""
-    nj2, nf, nc = H.shape[1], free.shape[0], own.shape[0]
-    U = np.empty((3, nj2, nf))
+    """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point
+    (:func:`_assemble_point`) from ``H`` (3, 2·joints, nx, point), ``solve``
+    (3, owned, nfree, point) and ``rot`` (3, 2, 2, link, point), which may have more points
+    than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case; P zero on
+    entry."""
+    U = np.zeros((3, H.shape[1], free.shape[0]))
     for p in range(P.shape[1]):
-        for r in range(nj2):
-            for f in range(nf):
-                u0, u1, u2 = H[0, r, free[f], p], H[1, r, free[f], p], H[2, r, free[f], p]
-                for c in range(nc):
-                    h0, h1, h2 = H[0, r, own[c], p], H[1, r, own[c], p], H[2, r, own[c], p]
-                    s0, s1, s2 = solve[0, c, f, p], solve[1, c, f, p], solve[2, c, f, p]
-                    u0 += h0 * s0
-                    u1 += h1 * s0 + h0 * s1
-                    u2 += h2 * s0 + 2.0 * (h1 * s1) + h0 * s2
-                U[0, r, f], U[1, r, f], U[2, r, f] = u0, u1, u2
+        _assemble_point(H[:, :, :, p], free, own, solve[:, :, :, p], rot[:, :, :, :, p], ends,
+                        rows, lengths[p // nstep], joint_rows, P, p, U)
+
+
+@nb.njit(inline="always", cache=True, nogil=True)
+def _assemble_point(H, free, own, solve, rot, ends, rows, lengths, joint_rows, P, p, U):
+    """Joint and link-end rows of P[:, p] (3, nz, nfree) at one point: the joint translations
+    U = H E (E: the identity on the free coordinates, ``solve`` on the owned ones:
+    H[free] + H[own] solve) and each link's end translations in its frame, Rᵀ U, with their
+    two time derivatives (Leibniz). ``H`` (3, 2·joints, nx), ``solve`` (3, owned, nfree),
+    ``rot`` (3, 2, 2, link), ``lengths`` (link,) m at the point; ``U`` (3, 2·joints, nfree)
+    is scratch, zero on entry; ``joint_rows`` (2·joints,) the joints' z rows (−1: a joint
+    that does not move, :func:`_joint_rows`).
+
+    A joint that does not move is skipped, and so are the link ends on it: their rows would
+    be +0.0 (U is +0.0 there, and r·(+0.0) summed from +0.0 is +0.0), which P and U hold
+    already; so are a rigid link's second-end rows it does not use. The same bits as
+    computing them, a third to a half of the work (the ground pivots)."""
+    nj2, nf, nc = H.shape[1], free.shape[0], own.shape[0]
+    for r in range(nj2):
+        if joint_rows[r] < 0:
+            continue
+        for f in range(nf):
+            u0, u1, u2 = H[0, r, free[f]], H[1, r, free[f]], H[2, r, free[f]]
+            for c in range(nc):
+                h0, h1, h2 = H[0, r, own[c]], H[1, r, own[c]], H[2, r, own[c]]
+                s0, s1, s2 = solve[0, c, f], solve[1, c, f], solve[2, c, f]
+                u0 += h0 * s0
+                u1 += h1 * s0 + h0 * s1
+                u2 += h2 * s0 + 2.0 * (h1 * s1) + h0 * s2
+            U[0, r, f], U[1, r, f], U[2, r, f] = u0, u1, u2
+            for d in range(3):
+                P[d, p, joint_rows[r], f] = U[d, r, f]
+    for i in range(ends.shape[0]):
+        rigid = rows[i, 3] < 0
+        moving = (joint_rows[2 * ends[i, 0]] >= 0, joint_rows[2 * ends[i, 1]] >= 0)
+        for e in range(2):
+            k = 2 * ends[i, e]
+            if not (moving[e] or (rigid and e == 1 and moving[0])):
+                continue  # zero rows (a rigid link's φ is not if its first end moves)
+            for a in range(2):  # (Rᵀ U)[a] = Σ_b R[b, a] U[b]
+                if rigid and e == 1 and a == 0:
+                    continue  # not used: φ takes the transverse component
+                for f in range(nf):
+                    v0 = v1 = v2 = 0.0
+                    for b in range(2):
+                        r0, r1, r2 = rot[0, b, a, i], rot[1, b, a, i], rot[2, b, a, i]
+                        w0, w1, w2 = U[0, k + b, f], U[1, k + b, f], U[2, k + b, f]
+                        v0 += r0 * w0
+                        v1 += r1 * w0 + r0 * w1
+                        v2 += r2 * w0 + 2.0 * (r1 * w1) + r0 * w2
+                    if not rigid:
+                        row = rows[i, 2 * e + a]
+                        P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
+                    elif e == 0:  # (u0, v0): the first end's translation
+                        row = rows[i, a]
+                        P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
+                    else:  # φ = e⊥ᵀ(Us − Uf)/L
+                        L = lengths[i]
+                        row, first = rows[i, 2], rows[i, 1]
+                        P[0, p, row, f] = (v0 - P[0, p, first, f]) / L
+                        P[1, p, row, f] = (v1 - P[1, p, first, f]) / L
+                        P[2, p, row, f] = (v2 - P[2, p, first, f]) / L
+
+
+#: Build P in one compiled pass over the points (:func:`_project`) where the layout has no
+#: RPR sleeve and at most one rigid-link constraint; ``CED_KERNEL=numpy`` keeps the numpy
+#: jets (:mod:`ced.fem.jets`), the reference it is tested against (the same bits).
+COMPILED = os.environ.get("CED_KERNEL", "numba") != "numpy"
+
+
+def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.ndarray,
+                         link_velocity: np.ndarray, link_acceleration: np.ndarray,
+                         points: dict[str, np.ndarray] | None,
+                         guide_angle: dict[str, np.ndarray] | None) -> np.ndarray:
+    """:func:`projection` by :func:`_project`, from tables of the layout: each point's jets
+    (rotations, H, the point rows, the constraint and its solution) stay in a few hundred
+    bytes of scratch instead of arrays over every point with a numpy call per joint and link
+    (a Watt II's point and owned coordinate cost 3× the four-bar's projection so)."""
+    topo = layout.topology
+    ncase, nstep = shape = link_angle.shape[:2]
+    joints, names = list(topo.joints), topo.link_names
+    guides = guide_angle or {}
+    # Per joint: its frame (0 the global one, 1 its host link's, 2 a fixed guide's) and which.
+    frame = np.zeros((len(joints), 2), np.int64)
+    for k, j in enumerate(joints):
+        if j in guides:
+            frame[k] = (2, list(guides).index(j))
+        elif layout.host[j] is not None:
+            frame[k] = (1, names.index(layout.host[j]))
+    guide = np.zeros((ncase, len(guides), 2))
+    for g, phi in enumerate(guides.values()):
+        guide[:, g, 0], guide[:, g, 1] = np.cos(phi), np.sin(phi)
+    coords = [key for key, kind in layout.coordinate_kind.items() if kind in ("free", "own")]
+    col = {key: i for i, key in enumerate(coords)}
+    column = np.array([[col.get((j, axis), -1) for axis in (0, 1)] for j in joints],
+                      np.int64).reshape(-1, 2)
+    order = _point_order(topo)
+    point = np.array([[joints.index(j), names.index(topo.points[j]),
+                       *(joints.index(e) for e in topo.links[topo.points[j]])] for j in order],
+                     np.int64).reshape(-1, 4)
+    xy = np.zeros((ncase, len(order), 2))
+    for q, j in enumerate(order):
+        xy[:, q] = np.asarray(points[j], float)
+    constraint = np.array([[names.index(name), *(joints.index(e) for e in topo.links[name])]
+                           for name, _, _ in layout.constraints], np.int64).reshape(-1, 3)
+    free = np.array([col[key] for key in layout.free_coordinates], np.int64)
+    own = np.array([col[c[2]] for c in layout.constraints], np.int64)
+    joint_rows = _joint_rows(layout)
+    flat = lambda x: np.require(x, float, "C").reshape(ncase * nstep, -1)  # noqa: E731
+    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
+    _project(flat(np.cos(link_angle)), flat(np.sin(link_angle)), flat(link_velocity),
+             flat(link_acceleration), nstep, frame, guide, column, len(coords), point, xy,
+             constraint, free, own, _link_ends(layout), _link_rows(layout),
+             np.ascontiguousarray(lengths, dtype=float), joint_rows, P)
+    return P.reshape((3,) + shape + P.shape[2:])
+
+
+@nb.njit(cache=True, nogil=True)
+def _project(cos, sin, w, al, nstep, frame, guide, column, nx, point, xy, constraint, free,
+             own, ends, rows, lengths, joint_rows, P):
+    """P (3, point, nz, nfree) point by point with the arithmetic of the numpy path of
+    :func:`projection` operation for operation (the jets of :mod:`ced.fem.jets`): the link
+    rotation jets, H, the rows of joints at points, one rigid-link constraint solved for its
+    owned coordinate, then :func:`_assemble_point`. ``cos``, ``sin``, ``w``, ``al``
+    (point, link) the rigid link angles' cosine and sine, rad/s, rad/s²; the tables as
+    :func:`_projection_compiled` makes them; P zero on entry."""
+    nlink, njoint, nf, nc = cos.shape[1], frame.shape[0], free.shape[0], own.shape[0]
+    rot = np.empty((3, 2, 2, nlink))
+    H = np.empty((3, 2 * njoint, nx))
+    R = np.empty((3, max(nc, 1), nx))
+    solve = np.empty((3, nc, nf))
+    U = np.zeros((3, 2 * njoint, nf))  # the rows of joints that do not move stay zero
+    e, n, wv = np.empty((3, 2)), np.empty((3, 2)), np.empty((3, 2))
+    D, phi = np.empty((3, 2)), np.empty(3)
+    for p in range(P.shape[1]):
+        case = p // nstep
+        for i in range(nlink):  # jets.rotation_points
+            c, s, ww, aa = cos[p, i], sin[p, i], w[p, i], al[p, i]
+            cj = (c, -ww * s, -aa * s - ww * ww * c)
+            sj = (s, ww * c, aa * c - ww * ww * s)
+            for d in range(3):
+                rot[d, 0, 0, i], rot[d, 0, 1, i] = cj[d], -sj[d]
+                rot[d, 1, 0, i], rot[d, 1, 1, i] = sj[d], cj[d]
+        H[:] = 0.0
+        for k in range(njoint):  # a coordinate's column: its frame's axis
+            for axis in range(2):
+                x = column[k, axis]
+                if x < 0:
+                    continue
+                for b in range(2):
+                    if frame[k, 0] == 1:
+                        for d in range(3):
+                            H[d, 2 * k + b, x] = rot[d, b, axis, frame[k, 1]]
+                    elif frame[k, 0] == 2:
+                        g = frame[k, 1]
+                        cg, sg = guide[case, g, 0], guide[case, g, 1]
+                        H[0, 2 * k + b, x] = (cg if b == axis else
+                                              (-sg if b == 0 else sg))
+                    else:
+                        H[0, 2 * k + b, x] = 1.0 if b == axis else 0.0
+        for q in range(point.shape[0]):  # _point_rows
+            j, i, kf, ks = point[q, 0], point[q, 1], point[q, 2], point[q, 3]
+            x, y, L = xy[case, q, 0], xy[case, q, 1], lengths[case, i]
+            for d in range(3):
+                for b in range(2):
+                    e[d, b], n[d, b] = rot[d, b, 0, i], rot[d, b, 1, i]
+                    wv[d, b] = x * n[d, b] - y * e[d, b]
+            for m in range(nx):
                 for d in range(3):
-                    P[d, p, joint_rows[r], f] = U[d, r, f]
-        for i in range(ends.shape[0]):
-            rigid = rows[i, 3] < 0
-            for e in range(2):
-                k = 2 * ends[i, e]
-                for a in range(2):  # (Rᵀ U)[a] = Σ_b R[b, a] U[b]
-                    for f in range(nf):
-                        v0 = v1 = v2 = 0.0
+                    for b in range(2):
+                        D[d, b] = H[d, 2 * ks + b, m] - H[d, 2 * kf + b, m]
+                phi[0] = _dot(n, 0, D, 0)
+                phi[1] = _dot(n, 1, D, 0) + _dot(n, 0, D, 1)
+                phi[2] = _dot(n, 2, D, 0) + 2.0 * _dot(n, 1, D, 1) + _dot(n, 0, D, 2)
+                for d in range(3):
+                    phi[d] = phi[d] / L
+                for b in range(2):
+                    t0 = wv[0, b] * phi[0]
+                    t1 = wv[1, b] * phi[0] + wv[0, b] * phi[1]
+                    t2 = wv[2, b] * phi[0] + 2.0 * (wv[1, b] * phi[1]) + wv[0, b] * phi[2]
+                    H[0, 2 * j + b, m] = H[0, 2 * kf + b, m] + t0
+                    H[1, 2 * j + b, m] = H[1, 2 * kf + b, m] + t1
+                    H[2, 2 * j + b, m] = H[2, 2 * kf + b, m] + t2
+        for r in range(nc):  # e_iᵀ(U_s − U_f) = 0, as the numpy path sums it
+            i = constraint[r, 0]
+            for d in range(3):
+                for b in range(2):
+                    e[d, b] = rot[d, b, 0, i]
+            for m in range(nx):
+                for d in range(3):
+                    R[d, r, m] = 0.0
+                for k, sign in ((constraint[r, 2], 1.0), (constraint[r, 1], -1.0)):
+                    for d in range(3):
                         for b in range(2):
-                            r0, r1, r2 = rot[0, b, a, i, p], rot[1, b, a, i, p], rot[2, b, a, i, p]
-                            w0, w1, w2 = U[0, k + b, f], U[1, k + b, f], U[2, k + b, f]
-                            v0 += r0 * w0
-                            v1 += r1 * w0 + r0 * w1
-                            v2 += r2 * w0 + 2.0 * (r1 * w1) + r0 * w2
-                        if not rigid:
-                            row = rows[i, 2 * e + a]
-                            P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
-                        elif e == 0:  # (u0, v0): the first end's translation
-                            row = rows[i, a]
-                            P[0, p, row, f], P[1, p, row, f], P[2, p, row, f] = v0, v1, v2
-                        elif a == 1:  # φ = e⊥ᵀ(Us − Uf)/L
-                            L = lengths[p // nstep, i]
-                            row, first = rows[i, 2], rows[i, 1]
-                            P[0, p, row, f] = (v0 - P[0, p, first, f]) / L
-                            P[1, p, row, f] = (v1 - P[1, p, first, f]) / L
-                            P[2, p, row, f] = (v2 - P[2, p, first, f]) / L
+                            D[d, b] = H[d, 2 * k + b, m]
+                    R[0, r, m] += sign * _dot(e, 0, D, 0)
+                    R[1, r, m] += sign * (_dot(e, 1, D, 0) + _dot(e, 0, D, 1))
+                    R[2, r, m] += sign * (_dot(e, 2, D, 0) + 2.0 * _dot(e, 1, D, 1)
+                                          + _dot(e, 0, D, 2))
+        if nc == 1:  # jets.inverse_points of the 1 × 1 jet, then −X⁻¹ R[free]
+            x0, x1, x2 = R[0, 0, own[0]], R[1, 0, own[0]], R[2, 0, own[0]]
+            y0 = 1.0 / x0
+            y1 = -((y0 * x1) * y0)
+            y2 = -(y0 * (x2 * y0 + 2.0 * (x1 * y1)))
+            for f in range(nf):
+                f0, f1, f2 = R[0, 0, free[f]], R[1, 0, free[f]], R[2, 0, free[f]]
+                solve[0, 0, f] = -(y0 * f0)
+                solve[1, 0, f] = -(y1 * f0 + y0 * f1)
+                solve[2, 0, f] = -(y2 * f0 + 2.0 * (y1 * f1) + y0 * f2)
+        _assemble_point(H, free, own, solve, rot, ends, rows, lengths[case], joint_rows, P, p,
+                        U)
+
+
+@nb.njit(inline="always", cache=True, nogil=True)
+def _dot(x, dx, y, dy):
+    """x[dx] · y[dy] of two 2-vector jets (3, 2), summed as :func:`ced.fem.jets._product`."""
+    return x[dx, 0] * y[dy, 0] + x[dx, 1] * y[dy, 1]

@@ -14,7 +14,8 @@ import numpy as np
 from ..problem.linkage import bar_ends, describe, four_bar_loops
 from ..problem.mechanism import classify, input_limits, topology
 from ..rigid import dyads, kinematics
-from ..rigid.inverse_dynamics import BodyProperties
+from ..rigid import inverse_dynamics as newton_euler
+from ..rigid.inverse_dynamics import BodyProperties, InverseDynamics
 
 __all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families", "step_count"]
 
@@ -130,6 +131,9 @@ class Batch:
     #: The rigid motion at the steps 0 … k of the step grid, (k, motion), kept by
     #: :meth:`rigid_motion` for the later calls at steps of the grid.
     _on_grid: tuple | None = field(default=None, repr=False, compare=False)
+    #: The Newton–Euler systems of that motion solved, by (inertia, gravity bytes): kept by
+    #: :meth:`rigid_forces` for the later calls at steps of the grid.
+    _forces_on_grid: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -215,6 +219,44 @@ class Batch:
             return False
         descriptions = self.descriptions or [describe(self.scenes[0]["mechanism"])]
         return any(d["kind"] == "RRR" for d in descriptions[0]["dyads"])
+
+    def rigid_forces(self, times: np.ndarray, inertia: bool = True,
+                     gravity: np.ndarray | None = None,
+                     motion: kinematics.RigidMotion | None = None) -> InverseDynamics:
+        """Inverse dynamics (:func:`ced.rigid.inverse_dynamics.inverse_dynamics`) of the rigid
+        motion at ``times`` (case, n) s.
+
+        On the step grid the systems of the motion kept by :meth:`rigid_motion` are solved
+        once (the rigid outputs' period) and the forces at later steps read from them (the
+        period's terms sampled or evaluated chunk by chunk): the same bits as solving them
+        again, a third of the rigid outputs' inverse dynamics saved. Away from the grid, or
+        with ``CED_KERNEL=numpy``, they are solved as given.
+
+        Parameters
+        ----------
+        times : numpy.ndarray
+            Times, s, shape (case, n).
+        inertia : bool, optional
+            Include the d'Alembert forces of the rigid motion.
+        gravity : numpy.ndarray, optional
+            Gravity per case, m/s², shape (case, 2); default the batch's.
+        motion : RigidMotion, optional
+            :meth:`rigid_motion` at ``times``, where the caller has it.
+        """
+        motion = self.rigid_motion(times) if motion is None else motion
+        gravity = self.gravity if gravity is None else np.asarray(gravity, float)
+        steps = self._grid_steps(times)
+        if steps is not None and newton_euler.COMPILED:
+            last, grid = self._on_grid
+            key = (bool(inertia), gravity.tobytes())
+            kept = self._forces_on_grid.get(key)
+            if kept is None or kept[0] != last:  # none yet, or the grid motion was extended
+                kept = (last, newton_euler.solutions(grid, self.bodies, gravity, inertia))
+                self._forces_on_grid[key] = kept
+            forces = newton_euler.forces_at(kept[1], motion, steps)
+            if forces is not None:
+                return forces
+        return newton_euler.inverse_dynamics(motion, self.bodies, gravity, inertia=inertia)
 
     def _grid_steps(self, times: np.ndarray) -> np.ndarray | None:
         """The steps k (n,) with ``times`` exactly step_size × k in every case, ascending from

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from ..fem import elements
@@ -25,7 +27,6 @@ from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients,
                                 split_order, system_terms)
 from ..fem.eigenproblem import natural_frequencies
 from ..problem.errors import SceneError
-from ..rigid.inverse_dynamics import inverse_dynamics
 from .batch import Batch
 
 __all__ = ["Model", "build_model", "terms_at", "StepTerms"]
@@ -225,12 +226,9 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
         groups = ([(np.arange(n), all_ends[:, k]) for k in range(made.shape[1])] if made.all()
                   else [([c], all_ends[c, k:k + 1]) for c in range(n)
                         for k in np.flatnonzero(made[c])])
-        for cases, ends in groups:
+        for (cases, ends), bar in zip(groups, _bar_matrices(groups, par)):
             x, y = np.asarray(ends, float).T
             length = np.hypot(x, y)
-            bar = elements.rigid_body.link_matrices(
-                length, rho=par["rho"][cases], area=par["area"][cases],
-                second_moment=par["second_moment"][cases])
             T = np.zeros((len(length), 3, 3))
             T[:, 0, 0] = T[:, 1, 1] = x / length
             T[:, 0, 1], T[:, 1, 0], T[:, 2, 2] = y / length, -y / length, 1.0
@@ -253,6 +251,21 @@ def _ternary_links(batch: Batch, links: dict[str, LinkData]) -> tuple[dict, dict
     return points, ternary
 
 
+def _bar_matrices(groups: list, par: dict[str, np.ndarray]) -> list:
+    """The rigid matrices of the bars of each group (cases, bar ends (case, 2) m) of
+    :func:`_ternary_links`, from one call of the element module over them all: a call costs
+    ~0.3 ms whatever its size, a ternary link has two or three bars (the same bits)."""
+    cases = np.concatenate([np.asarray(c) for c, _ in groups])
+    ends = np.concatenate([np.asarray(e, float) for _, e in groups])
+    bars = elements.rigid_body.link_matrices(
+        np.hypot(ends[:, 0], ends[:, 1]), rho=par["rho"][cases], area=par["area"][cases],
+        second_moment=par["second_moment"][cases])
+    first = np.cumsum([0] + [len(e) for _, e in groups])
+    return [dataclasses.replace(bars, **{key: getattr(bars, key)[a:b] for key in
+                                         ("mass", "translational_mass", "gyroscopic")})
+            for a, b in zip(first[:-1], first[1:])]
+
+
 def _ternary_loads(model: Model, name: str, motion, forces, g, has_inertia: bool):
     """Resultant (force in the link frame (case, step, 2), moment about the first joint
     (case, step)) of the weight and d'Alembert field of a rigid ternary link, and its
@@ -266,6 +279,8 @@ def _ternary_loads(model: Model, name: str, motion, forces, g, has_inertia: bool
     i = topo.link_names.index(name)
     th = motion.link_angle[..., i]
     c, s = np.cos(th), np.sin(th)
+    if COMPILED:
+        return _ternary_loads_compiled(model, name, motion, forces, g, has_inertia, c, s)
     local = lambda v: np.stack([c * v[..., 0] + s * v[..., 1],  # noqa: E731
                                 -s * v[..., 0] + c * v[..., 1]], axis=-1)
     first, second = topo.links[name]
@@ -297,6 +312,80 @@ def _ternary_loads(model: Model, name: str, motion, forces, g, has_inertia: bool
         fl = local(f)  # F·r written out: a sum over an axis of 2 loops per pair
         stiffness = stiffness + (fl[..., 0] * arm[:, None, 0] + fl[..., 1] * arm[:, None, 1])
     return force, moment, stiffness
+
+
+#: Form a ternary link's loads in one compiled pass (:func:`_ternary_pass`); ``CED_KERNEL=numpy``
+#: keeps the numpy expressions of :func:`_ternary_loads`, the reference (the same bits).
+COMPILED = os.environ.get("CED_KERNEL", "numba") != "numpy"
+
+
+def _ternary_loads_compiled(model: Model, name: str, motion, forces, g, has_inertia: bool,
+                            c: np.ndarray, s: np.ndarray):
+    """:func:`_ternary_loads` by :func:`_ternary_pass`, from tables of the forces on the link
+    (joint, sign, carried) and their arms; ``c``, ``s`` (case, step) its cos θ, sin θ."""
+    topo = model.layout.topology
+    body = model.ternary[name]
+    i = topo.link_names.index(name)
+    first, second = topo.links[name]
+    ncase, nstep = c.shape
+    arms = {second: np.stack([model.batch.link_lengths[:, i], 0 * body["centre"][:, 0]], -1)}
+    arms.update({j: model.points[j] for j, link in topo.points.items() if link == name})
+    carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
+    table = np.array([[topo.joint_names.index(j), 1 if topo.joints[j][1] == name else -1,
+                       carrier[j] == name] for j in arms], np.int64).reshape(-1, 3)
+    arm = np.stack([np.asarray(a, float) for a in arms.values()], axis=1)  # (case, arm, 2)
+    props = np.stack([body["mass"], body["centre"][:, 0], body["centre"][:, 1],
+                      body["inertia"], body["polar"]], axis=-1)
+    force, moment, stiffness = np.empty((ncase, nstep, 2)), np.empty(c.shape), np.empty(c.shape)
+    joint_forces = np.zeros((ncase, nstep, 0, 2)) if forces is None else forces
+    C = lambda x: np.require(x, float, "C")  # noqa: E731  (one signature)
+    _ternary_pass(C(c), C(s), C(motion.link_angular_velocity[..., i]),
+                  C(motion.link_angular_acceleration[..., i]), C(motion.joint_acceleration),
+                  C(np.broadcast_to(g[:, 0], (ncase, 2))), has_inertia,
+                  topo.joint_names.index(first), C(props), table, C(arm),
+                  C(model.batch.bodies.point_mass), C(joint_forces), forces is not None, force,
+                  moment, stiffness)
+    return force, moment, (None if forces is None else stiffness)
+
+
+@nb.njit(cache=True, nogil=True)
+def _ternary_pass(c, s, w, al, acc, g, inertia, first, props, table, arm, point_mass, forces,
+                  with_forces, force, moment, stiffness):
+    """The loads of :func:`_ternary_loads` at every (case, step) with its arithmetic operation
+    for operation (the same bits): ``props`` (case, 5) the link's mass, centre (x, y) in its
+    frame, moment of inertia about the first joint and polar term; ``table`` (arm, 3) each
+    force's joint, sign and whether the link carries the joint's point mass, ``arm``
+    (case, arm, 2) its point in the link frame; ``acc`` and ``forces`` (case, step, joint, 2);
+    ``g`` (case, 2) m/s²."""
+    for i in range(c.shape[0]):
+        m, cx, cy, inert, polar = props[i, 0], props[i, 1], props[i, 2], props[i, 3], props[i, 4]
+        gx, gy = g[i, 0], g[i, 1]
+        for k in range(c.shape[1]):
+            ck, sk = c[i, k], s[i, k]
+            vx = gx - (acc[i, k, first, 0] if inertia else 0.0)
+            vy = gy - (acc[i, k, first, 1] if inertia else 0.0)
+            qx, qy = ck * vx + sk * vy, -sk * vx + ck * vy
+            fx, fy = m * qx, m * qy
+            mo = m * (cx * qy - cy * qx)
+            st = m * (cx * qx + cy * qy)
+            if inertia:
+                ww, a = w[i, k] * w[i, k], al[i, k]
+                fx = fx + m * (ww * cx + a * cy)
+                fy = fy + m * (ww * cy - a * cx)
+                mo = mo - a * inert
+                st = st + ww * polar
+            force[i, k, 0], force[i, k, 1], moment[i, k] = fx, fy, mo
+            if with_forces:
+                for r in range(table.shape[0]):
+                    j, sign = table[r, 0], float(table[r, 1])
+                    px, py = sign * forces[i, k, j, 0], sign * forces[i, k, j, 1]
+                    if table[r, 2]:
+                        mp = point_mass[i, j]
+                        px = px + mp * (gx - (acc[i, k, j, 0] if inertia else 0.0))
+                        py = py + mp * (gy - (acc[i, k, j, 1] if inertia else 0.0))
+                    lx, ly = ck * px + sk * py, -sk * px + ck * py
+                    st = st + (lx * arm[i, r, 0] + ly * arm[i, r, 1])
+            stiffness[i, k] = st
 
 
 def _reduce(layout: Layout, links: dict, recovery: dict, modes: int, slider: str | None):
@@ -376,7 +465,7 @@ def terms_at(
     loads, axial = {}, {} if "axial_stiffening" in effects else None
     forces = sleeve_forces = None
     if axial is not None:
-        rigid = inverse_dynamics(motion, batch.bodies, gravity, inertia=has_inertia)
+        rigid = batch.rigid_forces(times, has_inertia, gravity, motion)
         forces, sleeve_forces = rigid.joint_force, rigid.sleeve_force
     carrier = {j: (b[0] if b[1] == "tip" else b[1]) for j, b in topo.joints.items()}
     for i, name in enumerate(topo.links):

@@ -9,9 +9,11 @@ Shapes as in :mod:`ced.rigid.kinematics`: lengths (case,), motion (case, step).
 """
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from ..problem.linkage import linkage_topology
+from . import kinematics
 from .kinematics import (InputMotion, RigidMotion, SINGULAR_SIN, choose_branch, fill_singular,
                          perp, pick, unit, unwrap)
 
@@ -67,10 +69,56 @@ def _point_motion(base, trig, velocity, acceleration, local, out) -> None:
     np.subtract(base[2][..., 1] + al * rx, ww * ry, out=out[2][..., 1])
 
 
-def _rrr(P, Q, l1, l2, branch, follow=None):
+@nb.njit(cache=True, nogil=True)
+def _point_rows(joints, base, tip, c, s, w, al, local):
+    """:func:`_point_motion` of joint ``tip`` from joint ``base`` of the joint motion
+    ``joints`` (position, velocity, acceleration, each (case, step, joint, 2), C-contiguous),
+    in place, with its arithmetic operation for operation: one pass instead of a dozen numpy
+    calls on strided (case, step) views (a six-bar places four joints so; the same bits).
+    ``c``, ``s``, ``w``, ``al`` (case, step) the frame's cos θ, sin θ, ω, α; ``local``
+    (case, 2) m."""
+    P, V, A = joints
+    for i in range(c.shape[0]):
+        x, y = local[i, 0], local[i, 1]
+        for k in range(c.shape[1]):
+            ck, sk, wk, ak = c[i, k], s[i, k], w[i, k], al[i, k]
+            rx, ry = x * ck + y * -sk, x * sk + y * ck
+            ww = wk * wk
+            P[i, k, tip, 0] = P[i, k, base, 0] + rx
+            P[i, k, tip, 1] = P[i, k, base, 1] + ry
+            V[i, k, tip, 0] = V[i, k, base, 0] + wk * -ry
+            V[i, k, tip, 1] = V[i, k, base, 1] + wk * rx
+            A[i, k, tip, 0] = (A[i, k, base, 0] + ak * -ry) - ww * rx
+            A[i, k, tip, 1] = (A[i, k, base, 1] + ak * rx) - ww * ry
+
+
+@nb.njit(cache=True, nogil=True)
+def _rrr_rates(joints, kp, kq, l1, l2, c1, s1, c2, s2, safe, out):
+    """The rates and accelerations of :func:`_rrr` (w1, w2, α1, α2 into ``out``
+    (4, case, step)) with its arithmetic operation for operation, where no step is singular:
+    one pass instead of some thirty numpy calls (the same bits). ``joints`` the joint motion
+    (position, velocity, acceleration, each (case, step, joint, 2)), ``kp``, ``kq`` the
+    dyad's outer joints; ``l1``, ``l2`` (case,) m; the rest (case, step)."""
+    _, V, A = joints
+    for i in range(c1.shape[0]):
+        a, b = l1[i], l2[i]
+        for k in range(c1.shape[1]):
+            dvx, dvy = V[i, k, kq, 0] - V[i, k, kp, 0], V[i, k, kq, 1] - V[i, k, kp, 1]
+            w1 = (dvx * c2[i, k] + dvy * s2[i, k]) / (a * safe[i, k])
+            w2 = (dvx * c1[i, k] + dvy * s1[i, k]) / (b * safe[i, k])
+            k1, k2 = a * w1 * w1, b * w2 * w2
+            dax = A[i, k, kq, 0] - A[i, k, kp, 0] + k1 * c1[i, k] - k2 * c2[i, k]
+            day = A[i, k, kq, 1] - A[i, k, kp, 1] + k1 * s1[i, k] - k2 * s2[i, k]
+            out[0, i, k], out[1, i, k] = w1, w2
+            out[2, i, k] = (dax * c2[i, k] + day * s2[i, k]) / (a * safe[i, k])
+            out[3, i, k] = (dax * c1[i, k] + day * s1[i, k]) / (b * safe[i, k])
+
+
+def _rrr(P, Q, l1, l2, branch, follow=None, joints=None):
     """Place an RRR dyad: angles, rates and accelerations of its links P→M and Q→M, the
     (cos, sin) of both angles and the solution chosen at each step (``follow``: as
-    :func:`ced.rigid.kinematics.four_bar` takes it)."""
+    :func:`ced.rigid.kinematics.four_bar` takes it). ``joints`` (the joint motion and the indices of P and Q in
+    it) takes the rates through :func:`_rrr_rates` where no step is singular."""
     dx, dy = Q[0][..., 0] - P[0][..., 0], Q[0][..., 1] - P[0][..., 1]
     dist = np.hypot(dx, dy)
     psi = np.arctan2(dy, dx)
@@ -91,6 +139,11 @@ def _rrr(P, Q, l1, l2, branch, follow=None):
     singular = np.abs(s21) < SINGULAR_SIN
     safe = np.where(singular, 1.0, s21)
     c2, s2 = np.cos(th2), np.sin(th2)
+    if joints is not None and kinematics.COMPILED and not singular.any():
+        out = np.empty((4,) + th1.shape)
+        _rrr_rates(*joints, np.require(l1[:, 0], float, "C"), np.require(l2[:, 0], float, "C"),
+                   *(np.require(x, float, "C") for x in (c1, s1, c2, s2, safe)), out)
+        return (th1, out[0], out[2]), (th2, out[1], out[3]), singular, (c1, s1), (c2, s2), choice
     dvx, dvy = Q[1][..., 0] - P[1][..., 0], Q[1][..., 1] - P[1][..., 1]
     w1 = (dvx * c2 + dvy * s2) / (l1 * safe)
     w2 = (dvx * c1 + dvy * s1) / (l2 * safe)
@@ -177,6 +230,7 @@ def linkage(descriptions: list[dict], motion: InputMotion,
     joint_motion = tuple(np.zeros(shape + (len(topo.joint_names), 2)) for _ in range(3))
     known: dict[str, tuple] = {
         name: tuple(x[:, :, j] for x in joint_motion) for j, name in enumerate(topo.joint_names)}
+    index = {name: j for j, name in enumerate(topo.joint_names)}
     placed = set(first["ground"])
     for name in placed & set(known):
         known[name][0][...] = _column(descriptions, lambda d: d["ground"][name])[:, None, :]
@@ -203,7 +257,12 @@ def linkage(descriptions: list[dict], motion: InputMotion,
             trig[link] = (np.cos(angles[link][0]), np.sin(angles[link][0]))
         for name, xy in local.items():
             if name not in placed and name in known:
-                _point_motion(start, trig[link], *angles[link][1:], xy, known[name])
+                if kinematics.COMPILED:
+                    _point_rows(joint_motion, index[topo.links[link][0]], index[name],
+                                *(np.require(x, float, "C") for x in (*trig[link],
+                                                                      *angles[link][1:], xy)))
+                else:
+                    _point_motion(start, trig[link], *angles[link][1:], xy, known[name])
                 placed.add(name)
 
     place(inp["link"])
@@ -223,7 +282,7 @@ def linkage(descriptions: list[dict], motion: InputMotion,
             lengths[l2] = _column(descriptions, lambda d: d["dyads"][k]["lengths"][1])
             angles[l1], angles[l2], bad, trig[l1], trig[l2], branch[l1] = _rrr(
                 P, Q, lengths[l1][:, None], lengths[l2][:, None], sign[:, 0],
-                None if follow is None else follow[l1])
+                None if follow is None else follow[l1], (joint_motion, index[dyad["joints"][0]], index[dyad["joints"][2]]))
             singular |= bad
             place(l1)
             place(l2)

@@ -30,7 +30,8 @@ from .dyads import point_motion
 from .kinematics import RigidMotion
 from .small_systems import block_order, solve_batch, solve_blocks
 
-__all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate"]
+__all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate",
+           "Solutions", "solutions", "forces_at"]
 
 
 @dataclass(frozen=True)
@@ -111,8 +112,7 @@ def inverse_dynamics(
         without them the result is the static force analysis under gravity.
     """
     topo = motion.topology
-    joints = topo.joint_names
-    ncase, nstep = motion.time.shape
+    ncase = motion.time.shape[0]
     g = np.broadcast_to(np.asarray(gravity, float), (ncase, 2))[:, None, :]
     unknowns = _Unknowns(topo)
     if COMPILED:
@@ -124,8 +124,72 @@ def inverse_dynamics(
         # back to the input (a Watt II's 15 unknowns as 6, 6 and 3). The pattern holds every
         # entry nonzero at some step, so that the blocks hold at all of them.
         x, ratio = solve_batch(A, rhs, block_order((A != 0).any(axis=(0, 1))))
-    x = _regular(x, ratio, motion.singular)
+    return _forces(motion, unknowns, _regular(x, ratio, motion.singular))
 
+
+@dataclass(frozen=True)
+class Solutions:
+    """The Newton–Euler systems of a motion solved by the compiled path, kept so that the
+    forces at some of its steps are read instead of solved again
+    (:meth:`ced.response.batch.Batch.rigid_forces`): the systems' tables (``data``, as
+    :func:`_solve_compiled` makes them), their block order, and the solutions x
+    (case, step, unknown) with their Hadamard ratios (case, step), before the singular
+    steps are interpolated."""
+
+    data: tuple
+    inertia: float
+    written: int
+    blocks: tuple
+    x: np.ndarray
+    ratio: np.ndarray
+
+
+def solutions(motion: RigidMotion, bodies: BodyProperties, gravity: np.ndarray,
+              inertia: bool = True) -> Solutions:
+    """The Newton–Euler systems of every step of ``motion`` solved and kept
+    (:class:`Solutions`; the compiled path of :func:`inverse_dynamics`).
+
+    Parameters
+    ----------
+    motion, bodies, inertia
+        As for :func:`inverse_dynamics`.
+    gravity : numpy.ndarray
+        Gravity per case, m/s², shape (case, 2).
+    """
+    unknowns = _Unknowns(motion.topology)
+    data, written = _tables(motion, bodies, np.asarray(gravity, float), unknowns)
+    blocks = _blocks(data, float(inertia), 3 * len(unknowns.bodies), written)
+    x, ratio = _solutions(data, float(inertia), blocks)
+    return Solutions(data, float(inertia), written, blocks, x, ratio)
+
+
+def forces_at(kept: Solutions, motion: RigidMotion, steps: np.ndarray
+              ) -> InverseDynamics | None:
+    """The forces at ``steps`` of the motion ``kept`` was solved on, read from it: those
+    :func:`inverse_dynamics` gives for ``motion`` (the motion at those steps), the same bits,
+    or None where its systems there would fall into other blocks (an entry zero at every one
+    of those steps), to be solved as usual.
+
+    Parameters
+    ----------
+    kept : Solutions
+        The systems of the motion's steps 0 … k (:func:`solutions`).
+    motion : RigidMotion
+        The motion at ``steps`` (:func:`ced.rigid.kinematics.at_steps`).
+    steps : numpy.ndarray
+        Steps of the kept motion, int, shape (step,).
+    """
+    blocks = _blocks(kept.data, kept.inertia, kept.x.shape[-1], kept.written, steps)
+    if not all(np.array_equal(a, b) for a, b in zip(blocks, kept.blocks)):
+        return None
+    return _forces(motion, _Unknowns(motion.topology),
+                   _regular(kept.x[:, steps], kept.ratio[:, steps], motion.singular))
+
+
+def _forces(motion: RigidMotion, unknowns: "_Unknowns", x: np.ndarray) -> InverseDynamics:
+    """The :class:`InverseDynamics` of the solutions x (case, step, unknown)."""
+    joints = motion.topology.joint_names
+    ncase, nstep = x.shape[:2]
     force = np.zeros((ncase, nstep, len(joints), 2))
     for u, joint in enumerate(unknowns.joints):
         force[:, :, joints.index(joint)] = x[..., 2 * u : 2 * u + 2]
@@ -327,6 +391,15 @@ def _solve_compiled(motion: RigidMotion, bodies: BodyProperties, g: np.ndarray,
     """Solutions (case, step, unknown) and Hadamard ratios (case, step) of the Newton–Euler
     systems of :func:`_system`, assembled step by step in a compiled loop from the motion
     and tables of the entries: no (case, step, n, n) array, no temporaries per body."""
+    data, written = _tables(motion, bodies, g, unknowns)
+    return _solutions(data, float(inertia),
+                      _blocks(data, float(inertia), 3 * len(unknowns.bodies), written))
+
+
+def _tables(motion: RigidMotion, bodies: BodyProperties, g: np.ndarray,
+            unknowns: _Unknowns) -> tuple[tuple, int]:
+    """The motion and tables :func:`_assemble` reads (``data``), and how many entries of a
+    system it writes."""
     topo = motion.topology
     links, joints = topo.link_names, topo.joint_names
     names = unknowns.bodies
@@ -374,17 +447,32 @@ def _solve_compiled(motion: RigidMotion, bodies: BodyProperties, g: np.ndarray,
         turning, bodies.point_mass, g, np.stack(value, axis=-1)))
     data += (table, carried, np.array(forces, np.int64).reshape(-1, 5),
              np.array(at, np.int64).reshape(-1, 2))
-    n = 3 * nb
     # The entries _assemble writes: (row, column) offsets of a joint force's, a sleeve's.
     offsets = (((0, 0), (1, 1), (2, 0), (2, 1)), ((0, 0), (1, 0), (2, 0)))
     written = {(3 * i + r, col + q) for i, col, _, kind, _ in forces for r, q in offsets[kind]}
-    blocks = block_order(_pattern(data, float(inertia), n, len(written | set(at))))
+    return data, len(written | set(at))
+
+
+def _blocks(data: tuple, inertia: float, n: int, written: int,
+            steps: np.ndarray | None = None) -> tuple:
+    """The :func:`ced.rigid.small_systems.block_order` of the systems of ``data`` (at
+    ``steps``, default all), or one dense block where they are structurally singular."""
+    steps = np.arange(data[0].shape[1], dtype=np.int64) if steps is None else steps
+    blocks = block_order(_pattern(data, inertia, n, written, steps.astype(np.int64)))
     if blocks is None:  # structurally singular: one dense LU (as solve_batch)
         whole = np.arange(n, dtype=np.int64)
         blocks = (whole, whole, np.array([0, n], np.int64))
+    return blocks
+
+
+def _solutions(data: tuple, inertia: float, blocks: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Solutions (case, step, unknown) and Hadamard ratios (case, step) of the systems of
+    ``data`` by :func:`_solve`."""
+    ncase, nstep = data[0].shape[:2]
+    n = len(blocks[0])
     x = np.empty((ncase, nstep, n))
     ratio = np.empty((ncase, nstep))
-    _solve(data, float(inertia), *blocks, x, ratio)
+    _solve(data, inertia, *blocks, x, ratio)
     return x, ratio
 
 
@@ -445,17 +533,18 @@ def _assemble(data, inertia, c, s, centre, A, b):
 
 
 @nb.njit(**_JIT)
-def _pattern(data, inertia, n, written):
-    """Which entries of the Newton–Euler matrices are nonzero at some (case, step), (n, n),
-    as ``(A != 0).any(axis=(0, 1))``; the scan stops once all the ``written`` entries the
-    assembly writes are (at the first step, unless an arm is zero there)."""
-    ncase, nstep = data[0].shape[:2]
+def _pattern(data, inertia, n, written, steps):
+    """Which entries of the Newton–Euler matrices are nonzero at some case and one of
+    ``steps``, (n, n), as ``(A != 0).any(axis=(0, 1))``; the scan stops once all the
+    ``written`` entries the assembly writes are (at the first step, unless an arm is zero
+    there)."""
+    ncase = data[0].shape[0]
     pattern = np.zeros((n, n), np.bool_)
     A, b = np.empty((n, n)), np.empty(n)
     centre = np.empty((n // 3, 2))
     found = 0
     for c in range(ncase):
-        for s in range(nstep):
+        for s in steps:
             A[:] = 0.0
             _assemble(data, inertia, c, s, centre, A, b)
             for i in range(n):

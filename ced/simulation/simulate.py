@@ -26,7 +26,6 @@ from ..response.batch import Batch, make_batch, structure_key
 from ..response.elastic import elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
 from ..response.model import build_model
-from ..rigid.inverse_dynamics import inverse_dynamics
 from .dataset import VARIABLES, case_coordinates, make_dataset
 from .size import cases_per_solve, check_run_memory
 
@@ -39,7 +38,8 @@ def _as_list(scenes) -> list:
     return list(scenes)
 
 
-def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]:
+def solve_batch(batch: Batch, peaks_only: bool = False,
+                allocate=None) -> dict[str, np.ndarray]:
     """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
@@ -55,6 +55,9 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
         Structurally identical cases (:func:`ced.response.batch.make_batch`).
     peaks_only : bool, optional
         Return the elastic peaks and the status only.
+    allocate : callable, optional
+        ``allocate(name, shape, dtype)`` gives the arrays the station fields of a batch
+        solved in one part are written into (:func:`_into`; default: new arrays).
 
     Returns
     -------
@@ -63,7 +66,7 @@ def solve_batch(batch: Batch, peaks_only: bool = False) -> dict[str, np.ndarray]
     """
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
-        return _solve_part(batch, peaks_only)
+        return _solve_part(batch, peaks_only, allocate)
     out: dict[str, np.ndarray] = {}
     for first in range(0, batch.size, limit):
         part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only,
@@ -97,7 +100,7 @@ def _solve_part(batch: Batch, peaks_only: bool = False,
     if peaks_only:  # a pilot or a companion: only the elastic peaks are read from it
         out, singular = {}, _singular(batch)
     else:
-        out, singular = _rigid_outputs(batch, "inertia" in effects)
+        out, singular = _rigid_outputs(batch, "inertia" in effects, allocate)
     flags = np.zeros(batch.size, STATUS_DTYPE)
     flags[singular] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
@@ -117,41 +120,56 @@ def _singular(batch: Batch) -> np.ndarray:
     return batch.rigid_motion(batch.step_size[:, None] * solved[None, :]).singular.any(axis=1)
 
 
-def _rigid_outputs(batch: Batch, inertia: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def _rigid_outputs(batch: Batch, inertia: bool,
+                   allocate=None) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Rigid motion and inverse dynamics at the output steps, and the cases whose
     transmission is singular somewhere (case,).
 
     The motion repeats every input period (steps_per_revolution steps): it is solved over one
     period and repeated, the link angles advanced by the turns each link makes per period.
+    Each output is gathered from the solved steps straight into the array ``allocate``
+    gives (:func:`_into`: the run's output, not copied again), or a new one.
     """
     scene = batch.scenes[0]
     every = scene["outputs"]["every"]
     period = scene["time"]["steps_per_revolution"]
     solved = np.arange(min(batch.n_steps, period) + 1)
     steps = np.arange(0, batch.n_steps + 1, every)
-    motion = batch.rigid_motion(batch.step_size[:, None] * solved[None, :])
-    forces = inverse_dynamics(motion, batch.bodies, batch.gravity, inertia=inertia)
+    times = batch.step_size[:, None] * solved[None, :]
+    motion = batch.rigid_motion(times)
+    forces = batch.rigid_forces(times, inertia, motion=motion)
+    out: dict[str, np.ndarray] = {}
+
+    def put(name: str, x: np.ndarray, at: np.ndarray | None) -> None:
+        """out[name] = x at the output steps ``at`` of its step axis (None: x as it is)."""
+        shape = (x.shape[0], len(steps)) + x.shape[2:]
+        out[name] = (np.empty(shape, x.dtype) if allocate is None
+                     else allocate(name, shape, x.dtype))
+        if at is None:
+            out[name][...] = x
+        else:  # "clip" (the steps are in range) gathers without a buffer
+            np.take(x, at, axis=1, out=out[name], mode="clip")
+
     if batch.n_steps <= period:  # every output step was solved
         j = steps
-        angle = motion.link_angle[:, j]
+        angle, angle_at = motion.link_angle, j
     else:
         j, turns = steps % period, steps // period
         per_period = np.round((motion.link_angle[:, period] - motion.link_angle[:, 0])
                               / (2.0 * np.pi))
         angle = (motion.link_angle[:, j]
                  + 2.0 * np.pi * turns[None, :, None] * per_period[:, None, :])
-    out = {
-        "time": batch.step_size[:, None] * steps[None, :],
-        "crank_angle": angle[:, :, 0],
-        "joint_position": motion.joint_position[:, j],
-        "link_angle": angle,
-        "link_angular_velocity": motion.link_angular_velocity[:, j],
-        "link_angular_acceleration": motion.link_angular_acceleration[:, j],
-        "joint_force": forces.joint_force[:, j],
-        "input_torque": forces.input_torque[:, j],
-    }
+        angle_at = None
+    put("time", batch.step_size[:, None] * steps[None, :], None)
+    put("crank_angle", angle[:, :, 0], angle_at)
+    put("joint_position", motion.joint_position, j)
+    put("link_angle", angle, angle_at)
+    put("link_angular_velocity", motion.link_angular_velocity, j)
+    put("link_angular_acceleration", motion.link_angular_acceleration, j)
+    put("joint_force", forces.joint_force, j)
+    put("input_torque", forces.input_torque, j)
     if forces.guide_force is not None:
-        out["guide_force"] = forces.guide_force[:, j]
+        put("guide_force", forces.guide_force, j)
     return out, motion.singular.any(axis=1)
 
 
@@ -200,11 +218,12 @@ def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
         messages[case] = f"failed: non-finite {', '.join(names)}: {cause}"
 
 
-def _solve_isolated(batch: Batch,
-                    peaks_only: bool = False) -> tuple[dict[str, np.ndarray], list[str]]:
-    """Solve a batch; if it fails, solve its cases one by one and record the failures."""
+def _solve_isolated(batch: Batch, peaks_only: bool = False,
+                    allocate=None) -> tuple[dict[str, np.ndarray], list[str]]:
+    """Solve a batch (its station fields into ``allocate``'s arrays, :func:`solve_batch`);
+    if it fails, solve its cases one by one and record the failures."""
     try:
-        result, messages = solve_batch(batch, peaks_only), [""] * batch.size
+        result, messages = solve_batch(batch, peaks_only, allocate), [""] * batch.size
         _fail_nonfinite(result, messages)
         return result, messages
     except Exception:  # noqa: BLE001 — isolate the failing case(s) below
@@ -246,11 +265,15 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
     solved = []
     for group in groups.values():
         limit = cases_per_solve(scenes[group[0]])  # parts of bounded memory, failures isolated
+        # The parts write their station fields into the group's arrays (_in_order then has
+        # nothing to copy where the group holds the run's cases in order).
+        fields: dict[str, np.ndarray] = {}
         for first in range(0, len(group), limit):
             indices = group[first:first + limit]
             batch = make_batch([scenes[i] for i in indices])
             start = _time.perf_counter()
-            result, messages = _solve_isolated(batch, peaks_only)
+            result, messages = _solve_isolated(batch, peaks_only,
+                                               _into(fields, len(group), first))
             seconds = (_time.perf_counter() - start) / batch.size
             solved.append((batch, indices, result, (messages, seconds)))
     return solved
@@ -258,14 +281,29 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
 
 def _in_order(parts: list[np.ndarray], solved: list[tuple]) -> np.ndarray:
     """One variable of the solved groups in the caller's order of cases, copied once (not at
-    all when a single group holds the cases in order: the histories are most of the memory)."""
+    all when a single group holds the cases in order, in one part or in parts written into
+    one array (:func:`_solve_groups`): the histories are most of the memory)."""
     indices = [np.asarray(ix) for _, ix, _, _ in solved]
-    if len(parts) == 1 and np.array_equal(indices[0], np.arange(len(indices[0]))):
-        return parts[0]
+    total = sum(len(ix) for ix in indices)
+    if np.array_equal(np.concatenate(indices), np.arange(total)):
+        if len(parts) == 1:
+            return parts[0]
+        whole = parts[0].base
+        if (isinstance(whole, np.ndarray) and len(whole) == total
+                and all(_is_rows(part, whole, first) for part, first in
+                        zip(parts, np.cumsum([0] + [len(ix) for ix in indices[:-1]])))):
+            return whole
     out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:], parts[0].dtype)
     for ix, part in zip(indices, parts):
         out[ix] = part
     return out
+
+
+def _is_rows(part: np.ndarray, whole: np.ndarray, first: int) -> bool:
+    """``part`` is the view ``whole[first:first + len(part)]``."""
+    rows = whole[first:first + len(part)]
+    return (part.base is whole and part.shape == rows.shape and part.strides == rows.strides
+            and part.__array_interface__["data"][0] == rows.__array_interface__["data"][0])
 
 
 def _case_peak(peak_stress: np.ndarray) -> np.ndarray:

@@ -161,10 +161,10 @@ def test_failing_companion_leaves_the_case_and_no_estimate(monkeypatch):
 
     real = simulation.solve_batch
 
-    def failing_companions(batch, peaks_only=False):
+    def failing_companions(batch, peaks_only=False, allocate=None):
         if "companion" in batch.scenes[0].get("name", ""):
             raise FloatingPointError("injected")
-        return real(batch, peaks_only)
+        return real(batch, peaks_only, allocate)
 
     monkeypatch.setattr(simulation, "solve_batch", failing_companions)
     ds = simulate(_scene(4, 128))

@@ -143,3 +143,47 @@ def test_watt_ii_projection_keeps_rigid_links_rigid_and_points_on_them(flexible_
             expected = U[first] + phi[:, None] * (x * n - yy * e)
             assert np.allclose(U["E"], expected, atol=1e-12)
     assert layout.ny == len(layout.free_coordinates) + len(layout.interior_dofs)
+
+
+def _both_paths(monkeypatch, *args):
+    from ced.fem import coupling
+    out = []
+    for compiled in (True, False):
+        monkeypatch.setattr(coupling, "COMPILED", compiled)
+        out.append(projection(*args))
+    return out
+
+
+@pytest.mark.parametrize("kind, flexible", CASES)
+@pytest.mark.parametrize("guide", [None, 0.3])
+def test_compiled_projection_is_the_numpy_one_bit_for_bit(monkeypatch, kind, flexible, guide):
+    layout = _layout(kind, flexible)
+    motion = _motion(kind, np.linspace(0.0, 0.15, 13)[None])
+    guides = {"C": np.array([guide])} if guide is not None and kind == "slider_crank" else None
+    compiled, numpy = _both_paths(monkeypatch, layout, motion.lengths, motion.link_angle,
+                                  motion.link_angular_velocity,
+                                  motion.link_angular_acceleration, None, guides)
+    assert np.array_equal(compiled, numpy)
+
+
+@pytest.mark.parametrize("flexible_links", [("coupler2",), ("coupler", "rocker2"), ("crank",),
+                                            ("coupler", "coupler2", "rocker2"),
+                                            ("crank", "coupler", "coupler2", "rocker2")])
+def test_compiled_watt_ii_projection_is_the_numpy_one_bit_for_bit(monkeypatch, flexible_links):
+    """The point E of the ternary rocker and the rigid loops' owned coordinates, several
+    cases and steps."""
+    from ced.problem.scene import load_scene
+    from ced.response.batch import make_batch
+    from ced.response.model import build_model
+    from tests.rigid.test_dyads import WATT_II
+
+    links = {n: {"flexible": n in flexible_links}
+             for n in ("crank", "coupler", "coupler2", "rocker2")}
+    batch = make_batch([load_scene({"mechanism": WATT_II, "links": links,
+                                    "drive": {"speed": w}}) for w in (10.0, 37.0, 90.0)])
+    model = build_model(batch)
+    motion = batch.rigid_motion(batch.step_size[:, None] * np.arange(0.0, 40.0, 1.7)[None])
+    compiled, numpy = _both_paths(monkeypatch, model.layout, batch.link_lengths,
+                                  motion.link_angle, motion.link_angular_velocity,
+                                  motion.link_angular_acceleration, model.points)
+    assert np.array_equal(compiled, numpy)

@@ -113,3 +113,24 @@ def test_random_times_off_the_grid_are_on_the_grid_motions_branch(mechanism, pos
         positions = np.unique(np.clip(positions[:, None] + np.linspace(0.0, 0.9, 5)[None, :],
                                       0.0, 127.9))
     _assert_on_the_grid_motion(batch, batch.step_size[:, None] * positions[None, :])
+
+
+@pytest.mark.parametrize("mechanism", [CHANGE_POINT, CRANK_ROCKER, WATT_II],
+                         ids=["change_point", "crank_rocker", "watt_ii"])
+@pytest.mark.parametrize("inertia", [True, False])
+def test_forces_at_steps_of_the_grid_are_those_solved_there(mechanism, inertia):
+    # The rigid outputs solve the period's systems once; the terms read the forces at their
+    # steps from them: the forces inverse_dynamics gives on the motion at those steps, the
+    # same bits (the change point's singular steps interpolated among the steps asked for).
+    from ced.rigid.inverse_dynamics import inverse_dynamics
+
+    batch = _batch(mechanism)
+    gravity = np.tile([0.0, -9.81], (batch.size, 1))
+    for steps in (np.arange(65), np.arange(0, 64, 4), np.arange(2, 64, 4), np.array([0]),
+                  np.arange(70, 80), np.array([0.5, 3.25])):
+        times = batch.step_size[:, None] * steps[None, :]
+        got = batch.rigid_forces(times, inertia, gravity)
+        want = inverse_dynamics(batch.rigid_motion(times), batch.bodies, gravity, inertia)
+        for name in ("joint_force", "input_torque"):
+            assert np.array_equal(getattr(got, name), getattr(want, name)), (steps, name)
+    assert len(batch._forces_on_grid) == 1

@@ -64,3 +64,29 @@ def test_more_modes_per_link_than_interior_dofs_is_refused():
         build_model(make_batch([scene]))
     assert err.value.path == "discretization.modes_per_link"
     assert "only 1 interior degrees of freedom" in err.value.message
+
+
+@pytest.mark.parametrize("effects", [
+    ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening", "gravity"],
+    ["inertia", "elastic_inertia", "axial_stiffening"],
+    ["elastic_inertia", "axial_stiffening", "gravity"],
+    ["inertia", "elastic_inertia", "gravity"]])
+def test_compiled_ternary_loads_are_the_numpy_ones_bit_for_bit(monkeypatch, effects):
+    """A six-bar's ternary rocker: its resultant loads and geometric stiffness from the
+    compiled pass, as from numpy's expressions (CED_KERNEL=numpy), whatever the effects."""
+    import ced.response.model as model_module
+    from tests.rigid.test_dyads import WATT_II
+
+    scenes = [load_scene({"mechanism": WATT_II, "effects": effects, "gravity": [0.4, -9.81],
+                          "point_masses": {"C": 0.2, "E": 0.1}, "drive": {"speed": w}})
+              for w in (10.0, 45.0)]
+    out = []
+    for compiled in (True, False):
+        monkeypatch.setattr(model_module, "COMPILED", compiled)
+        model = build_model(make_batch(scenes))
+        times = model.batch.step_size[:, None] * np.arange(0.0, 40.0, 1.3)[None]
+        terms, _ = terms_at(model, times)
+        out.append(terms)
+    for name in ("mass", "damping", "stiffness", "force"):
+        a, b = getattr(out[0], name), getattr(out[1], name)
+        assert (a is None and b is None) or np.array_equal(a, b), name

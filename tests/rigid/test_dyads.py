@@ -399,3 +399,20 @@ def test_transmission_from_positions_is_the_rigid_motions(name):
     got = transmission(description, motion.link_angle[0, :, 0])
     assert got.shape == expected.shape
     assert np.abs(got - expected).max() < 1e-12
+
+
+@pytest.mark.parametrize("name", sorted(MECHANISMS))
+def test_compiled_point_placement_is_the_numpy_one_bit_for_bit(monkeypatch, name):
+    """The joints placed from a link's frame (a dyad's middle joint, a point of a link) and
+    an RRR dyad's rates and accelerations by the compiled loops, as by numpy's expressions
+    (CED_KERNEL=numpy)."""
+    scenes = [_scene(MECHANISMS[name], drive={"speed": w}) for w in (7.0, 23.0)]
+    batch = make_batch(scenes)
+    times = batch.step_size[:, None] * np.arange(0.0, 70.0, 1.3)[None]
+    out = []
+    for compiled in (True, False):
+        monkeypatch.setattr(kin, "COMPILED", compiled)
+        out.append(make_batch(scenes)._solve_motion(times))
+    for field in ("joint_position", "joint_velocity", "joint_acceleration", "link_angle",
+                  "link_angular_velocity", "link_angular_acceleration"):
+        assert np.array_equal(getattr(out[0], field), getattr(out[1], field)), field
