@@ -13,6 +13,7 @@ timing each candidate as one batch of the 100 cases (one core, best of ``repeat`
 """
 from __future__ import annotations
 
+import resource
 import time
 
 import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
@@ -85,17 +86,26 @@ def cheapest(reference: np.ndarray, repeat: int = 2, log=print) -> dict:
 
 def batch_scaling(setting: tuple[int, int, int], sizes=(100, 1000, 10000), every: int = 64,
                   log=print) -> list[dict]:
-    """Wall time per case of ``setting`` in batches of ``sizes`` cases (speeds spread over the
-    sweep). Output every ``every`` steps so that 10,000 cases' histories fit in memory: the
-    solve is the same, the recorded history thinner."""
+    """Time per case of ``setting`` in batches of ``sizes`` cases (speeds spread over the
+    sweep): wall, and the process's user and system CPU time (on a shared machine the wall
+    time also holds waits for a core; the system time is the kernel's, mostly page faults),
+    with the peak resident memory so far. Output every ``every`` steps so that 10,000 cases'
+    histories fit in memory: the solve is the same, the recorded history thinner."""
     rows = []
     for size in sizes:
         speeds = np.linspace(90.0, 110.0, size)
         scenes = [scene(s, *setting, every=every) for s in speeds]
         batch = make_batch(scenes)
-        t0 = time.perf_counter()
+        before, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
         solve_batch(batch)
         seconds = (time.perf_counter() - t0) / size
-        rows.append({"batch": size, "seconds_per_case": seconds})
-        log(f"ced {setting} batch {size}: {1e3 * seconds:.2f} ms/case")
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        rows.append({"batch": size, "seconds_per_case": seconds,
+                     "user_seconds_per_case": (after.ru_utime - before.ru_utime) / size,
+                     "system_seconds_per_case": (after.ru_stime - before.ru_stime) / size,
+                     "peak_rss_mb": after.ru_maxrss / 1024})
+        log(f"ced {setting} batch {size}: {1e3 * seconds:.2f} ms/case (user "
+            f"{1e3 * rows[-1]['user_seconds_per_case']:.2f}, system "
+            f"{1e3 * rows[-1]['system_seconds_per_case']:.2f}), peak RSS "
+            f"{rows[-1]['peak_rss_mb']:.0f} MB")
     return rows
