@@ -25,8 +25,8 @@ __all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families
 MOTION_TURNS = (1, 2)
 #: Largest difference, in link angle (rad) and in joint position (relative to the longest
 #: link), between two configurations counted as the same. Round-off moves a configuration
-#: near a change point by ~sqrt(ε) (the assembly's square root there: at most 8.4e-8 rad over
-#: the default study's one-turn change points); the two branches differ by O(1) rad, and
+#: near a change point by ~sqrt(ε) (the assembly's square root there: at most 1.8e-7 rad over
+#: the default study's change points); the two branches differ by O(1) rad, and
 #: by ~sqrt(step) ≥ 2.5e-3 rad one step from the change point (10⁶ steps a turn).
 REPEAT_TOLERANCE = 1e-5
 
@@ -176,8 +176,10 @@ class Batch:
         branch: its motion repeats only every two turns. The motion is compared at steps 0
         and 1 with the steps one (two) turns on, link angles modulo 2π and joint positions,
         to :data:`REPEAT_TOLERANCE`: step 1 as well, since a start on the change point itself
-        is the same configuration on either branch. A batch whose assembly solution cannot
-        change repeats every turn (nothing is solved). Dyad linkages are compared alike.
+        is the same configuration on either branch. The motion is tracked from the start as
+        the grid motion is, over one turn and a step (two, where some case has not repeated
+        after one). A batch whose assembly solution cannot change repeats every turn (nothing
+        is solved). Dyad linkages are compared alike.
 
         Raises
         ------
@@ -197,7 +199,10 @@ class Batch:
         undecided = np.ones(self.size, bool)
         for count in MOTION_TURNS:
             later = count * per_turn
-            grid = self._grid_motion(later + 1)  # kept: the later calls read it
+            # Solved apart, not kept: the kept motion's length sets the neighbours its last
+            # step's interpolated velocities are taken from (a singular step), and a one-turn
+            # case's results stay those of the motion over one turn.
+            grid = self._solve_motion(self.step_size[:, None] * np.arange(later + 2)[None, :])
             back = _same_configuration(grid, self.link_lengths, later)
             turns[undecided & back] = count
             undecided &= ~back
