@@ -120,8 +120,9 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     if qz is None:  # every case's peaks are its series' (peaks only, spectral)
         result.update(peak_deflection=series.peak_deflection, peak_stress=series.peak_stress)
     elif qz.shape[1] > n_out:  # a two-turn period longer than the run (_peak_span)
-        result.update(_recover(model, np.ascontiguousarray(qz[:, :n_out]), None,
-                               not peaks_only, allocate, series))
+        if not peaks_only:  # the station fields of the run's steps
+            result.update(_recover(model, np.ascontiguousarray(qz[:, :n_out]), None, True,
+                                   allocate, series))
         # The peaks (and the amplification) over the whole period, both turns.
         result.update(_recover(model, qz, qz_static, False, None, series))
     else:

@@ -20,7 +20,7 @@ from ced.response.marching import Marcher
 from ced.response.model import build_model, terms_at
 from ced.response.period_terms import period_terms
 from ced.response.periodic import INSTABILITY_MARGIN, monodromy
-from ced.simulation.simulate import simulate
+from ced.simulation.simulate import _peaks, simulate
 from tests.hard_cases.helpers import assert_finite, flags
 
 PARALLELOGRAM = {"type": "four_bar", "ground": 0.3, "crank": 0.1, "coupler": 0.3, "rocker": 0.1}
@@ -214,3 +214,12 @@ def test_two_turn_change_point_multiplier_is_per_turn():
     reported = float(ds.floquet_multiplier_max.values[0])
     assert reported == pytest.approx(np.sqrt(largest), rel=1e-9)
     assert ("parametrically_unstable" in flags(ds)) == (reported > 1.0 + INSTABILITY_MARGIN)
+
+
+def test_two_turn_change_point_peaks_only_solve_agrees():
+    # A pilot's or an error estimate's companion solve (peaks only) takes the same two-turn
+    # period and peaks as the full solve.
+    s = two_turn_scene(1)
+    full = simulate(s)
+    peaks = _peaks([load_scene(s)])
+    assert peaks["peak"][0] == pytest.approx(float(full.peak_stress.max()), rel=1e-12)
