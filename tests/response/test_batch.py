@@ -139,12 +139,21 @@ def test_forces_at_steps_of_the_grid_are_those_solved_there(mechanism, inertia):
 #: Crank = rocker, ground = coupler: passes its change points (θ = 0 and π) twice a turn and
 #: stays a parallelogram, back on its branch after every turn.
 PARALLELOGRAM = {"type": "four_bar", "ground": 0.3, "crank": 0.1, "coupler": 0.3, "rocker": 0.1}
+#: Crank = ground, coupler = rocker, the crank shortest: a rotating kite, whose crank pin
+#: passes over the rocker pivot once a turn (ced.rigid.kinematics._over_pivot).
+ROTATING_KITE = {"type": "four_bar", "ground": 0.2, "crank": 0.2, "coupler": 0.3, "rocker": 0.3}
+#: CHANGE_POINT as a linkage of one RRR dyad: its solutions are tracked the same way.
+CHANGE_POINT_DYADS = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [0.4, 0.0]},
+                      "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+                      "dyads": [{"kind": "RRR", "links": ["coupler", "rocker"],
+                                 "joints": ["B", "C", "D"], "lengths": [0.35, 0.15]}]}
 
 
 @pytest.mark.parametrize("mechanism, turns", [
-    (CHANGE_POINT, 2), (DOUBLE_CRANK_CHANGE_POINT, 2), (PARALLELOGRAM, 1), (CRANK_ROCKER, 1),
-    (WATT_II, 1)], ids=["change_point", "double_crank_change_point", "parallelogram",
-                        "crank_rocker", "watt_ii"])
+    (CHANGE_POINT, 2), (DOUBLE_CRANK_CHANGE_POINT, 2), (ROTATING_KITE, 2),
+    (CHANGE_POINT_DYADS, 2), (PARALLELOGRAM, 1), (CRANK_ROCKER, 1), (WATT_II, 1)],
+    ids=["change_point", "double_crank_change_point", "rotating_kite", "change_point_dyads",
+         "parallelogram", "crank_rocker", "watt_ii"])
 def test_motion_turns_are_the_turns_after_which_the_motion_repeats(mechanism, turns):
     # The crank (ground) shortest: the change point is passed once a turn, straight through
     # onto the other branch, and the motion is back only after two turns. The double crank
