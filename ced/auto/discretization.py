@@ -133,15 +133,15 @@ _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
 
 def _pilot(scene: dict, elements: int, steps: int) -> dict:
-    out = copy.deepcopy(scene)
-    out["discretization"] = {"formulation": "euler_bernoulli", "elements_per_link": elements,
-                             "elements_across": 2, "modes_per_link": MODES}
-    out["time"]["steps_per_revolution"] = steps
-    if out["time"]["start"] == "periodic" and out["time"]["revolutions"] >= 1.0:
-        out["time"]["revolutions"] = 1.0  # the periodic state: one revolution has every peak
-    out["outputs"] = {**out["outputs"], "every": 1, "error_estimate": False}
-    out["modal"] = None
-    return out
+    # The blocks it changes are new, the others shared: normalized scenes are never changed
+    # in place, and a deep copy of each of a sweep's 355 pilots was 13 % of their time.
+    time = {**scene["time"], "steps_per_revolution": steps}
+    if time["start"] == "periodic" and time["revolutions"] >= 1.0:
+        time["revolutions"] = 1.0  # the periodic state: one revolution has every peak
+    return {**scene, "time": time, "modal": None,
+            "discretization": {"formulation": "euler_bernoulli", "elements_per_link": elements,
+                               "elements_across": 2, "modes_per_link": MODES},
+            "outputs": {**scene["outputs"], "every": 1, "error_estimate": False}}
 
 
 def _full_allowed(elements):

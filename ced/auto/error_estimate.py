@@ -48,7 +48,6 @@ which the fidelity ladder measures.
 """
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Callable
 from typing import NamedTuple
@@ -282,20 +281,22 @@ def companions(scene: dict, omega1_h: float = 0.0, collocation_points: int = 0
     every = scene["outputs"]["every"]
 
     def variant(n_el: int, steps: int) -> dict:
-        out = copy.deepcopy(scene)
+        # New blocks where it differs, the others shared (normalized scenes are never changed
+        # in place): a deep copy per case was 0.1 s of a 500-case chunk.
+        time = {**scene["time"], "steps_per_revolution": steps}
         if collocation_points:  # the series at the case's own points
-            out["time"]["collocation_points"] = int(collocation_points)
+            time["collocation_points"] = int(collocation_points)
         else:  # the case was shot: so are its companions
-            out["time"]["periodic_solver"] = "shooting"
-            out["time"]["collocation_points"] = "auto"
-        out["discretization"]["elements_per_link"] = n_el
-        out["time"]["steps_per_revolution"] = steps
+            time["periodic_solver"] = "shooting"
+            time["collocation_points"] = "auto"
         # Output (and peak sampling) at least as dense in time as the scene's: the same
         # instants when coarser, every step's worth of the scene's sampling when finer.
-        out["outputs"]["every"] = max(1, every * steps // spr) if steps < spr else every
-        out["modal"] = None  # only the peak stress is compared
-        out["name"] = f"{scene.get('name', '')} (error-estimate companion)"
-        return out
+        outputs = {**scene["outputs"],
+                   "every": max(1, every * steps // spr) if steps < spr else every}
+        return {**scene, "time": time, "outputs": outputs,
+                "discretization": {**disc, "elements_per_link": n_el},
+                "modal": None,  # only the peak stress is compared
+                "name": f"{scene.get('name', '')} (error-estimate companion)"}
 
     periodic = time["start"] == "periodic"
     safety = SAFETY_PERIODIC if periodic else SAFETY

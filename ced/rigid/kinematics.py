@@ -17,7 +17,7 @@ import numpy as np
 from ..problem.mechanism import GRASHOF_RTOL, Topology, topology
 
 __all__ = ["InputMotion", "RigidMotion", "at_steps", "branch_between", "input_motion", "four_bar",
-           "slider_crank", "single_link"]
+           "slider_crank", "single_link", "through_change_points"]
 
 #: |sin| of the transmission angle below which the closed-form velocity formulas are replaced
 #: by interpolation in time (change points and toggle positions: the formulas become 0/0).
@@ -266,7 +266,9 @@ def track_branch(
     touch only at a change point (S + L = P + Q, ``touching``); elsewhere the choice never
     changes, however close the branches come. Where they touch, the candidate nearest to the
     linear extrapolation of the last two steps is kept, so the motion passes straight through
-    the singular configuration instead of reflecting off it. Deterministic.
+    the singular configuration instead of reflecting off it — where a step falls within
+    :data:`_MEET` of the touching point (a dyad's loop; a four-bar's change points are
+    counted in closed form instead, :func:`through_change_points`). Deterministic.
 
     Returns
     -------
@@ -341,6 +343,58 @@ def choose_branch(candidates: np.ndarray, start_index: np.ndarray, touching: np.
 #: Smallest gap (rad) between the two branches of a case, over its steps, below which they
 #: count as meeting (:func:`track_branch`).
 _MEET = 1e-2
+#: Distance (in turns) from a touching crank angle within which a step counts as on it.
+_ON_LEVEL = 1e-12
+
+
+def _crossing_parity(angle: np.ndarray, level: float) -> np.ndarray:
+    """(case, step) int, 0 or 1: the parity of the number of times the input angle has crossed
+    ``level`` (mod 2π) since the start. A step on the level (within :data:`_ON_LEVEL` turns)
+    takes the previous step's count, the leading ones the first step's off it: the two
+    assembly solutions coincide there, and a motion that starts on the level starts on the
+    side it moves to. The parity of the crossings is that of the net ones, whatever the path
+    (a rocking input crosses back and forth)."""
+    x = (angle - level) / (2.0 * np.pi)
+    on = np.abs(x - np.rint(x)) <= _ON_LEVEL
+    side = np.floor(x)
+    steps = np.arange(x.shape[1])
+    last_off = np.maximum.accumulate(np.where(on, -1, steps), axis=1)
+    first_off = np.argmax(~on, axis=1)[:, None]
+    side = np.take_along_axis(side, np.where(last_off < 0, first_off, last_off), axis=1)
+    return ((side - side[:, :1]) % 2).astype(np.int64)
+
+
+def through_change_points(angle: np.ndarray, start_index: np.ndarray, at_half_turn: np.ndarray,
+                          at_zero: np.ndarray) -> np.ndarray:
+    """The assembly solution of a change-point four-bar's coupler at every step, in closed form.
+
+    Its coupler and rocker are collinear (β = 0 or π, the two solutions ψ ± β one) only at
+    the crank angle where |BD| is extreme and equals b + c or |b − c|: θ2 ≡ π where
+    g + a = b + c, θ2 ≡ 0 where |g − a| = |b − c| (both for a parallelogram). There β is
+    V-shaped in θ2 (|BD| is stationary), so the solution that continues smoothly — the motion
+    passing straight through, as rigid links with inertia do — changes label at every crossing
+    of that angle. Counting crossings makes the motion independent of how the steps sample
+    the change point; tracking the nearest solution step by step (:func:`track_branch`) saw
+    the two touch only where a step fell within a small gap of it and otherwise reflected the
+    motion off it (a velocity jump of twice the coupler's).
+
+    Parameters
+    ----------
+    angle : numpy.ndarray
+        The crank angle θ2 at every step, (case, step), rad.
+    start_index : numpy.ndarray
+        The solution at the start, (case,) int, 0 or 1.
+    at_half_turn, at_zero : numpy.ndarray
+        Whether the two solutions touch at θ2 ≡ π and at θ2 ≡ 0, (case,) bool.
+
+    Returns
+    -------
+    numpy.ndarray
+        The solution at every step, (case, step) int, 0 or 1 (:func:`pick` takes it).
+    """
+    flips = (np.where(at_half_turn[:, None], _crossing_parity(angle, np.pi), 0)
+             + np.where(at_zero[:, None], _crossing_parity(angle, 0.0), 0))
+    return (start_index[:, None] + flips) % 2
 
 
 def _branches_meet(difference: np.ndarray) -> np.ndarray:
@@ -454,7 +508,16 @@ def four_bar(
     ordered = np.sort(np.concatenate([g, a, b, c], axis=1), axis=1)
     s_plus_l, p_plus_q = ordered[:, 0] + ordered[:, 3], ordered[:, 1] + ordered[:, 2]
     touching = np.abs(s_plus_l - p_plus_q) <= GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
-    choice = choose_branch(candidates, start, touching, follow)
+    if follow is None and touching.any():
+        # Change points in closed form; the kites' B over D is not one (``_over_pivot``).
+        scale = GRASHOF_RTOL * np.maximum(s_plus_l, p_plus_q)
+        choice = np.broadcast_to(start[:, None], th2.shape).copy()
+        choice[touching] = through_change_points(
+            th2[touching], start[touching],
+            (np.abs((g + a) - (b + c))[:, 0] <= scale)[touching],
+            ((np.abs(np.abs(g - a) - np.abs(b - c))[:, 0] <= scale) & ~over)[touching])
+    else:
+        choice = choose_branch(candidates, start, touching, follow)
     th3 = unwrap(pick(candidates, choice))
     c3, s3 = np.cos(th3), np.sin(th3)
     Cx = np.add(Bx, b * c3, out=P[:, :, 2, 0])

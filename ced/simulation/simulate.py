@@ -27,6 +27,7 @@ from ..response.elastic import elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
 from ..response.model import build_model
 from .dataset import VARIABLES, case_coordinates, make_dataset
+from .memory import keep_freed_memory
 from .size import cases_per_solve, check_run_memory
 
 __all__ = ["simulate", "solve_batch"]
@@ -44,7 +45,8 @@ def solve_batch(batch: Batch, peaks_only: bool = False,
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
     ``case`` axis, sampled every ``outputs.every`` steps. A batch larger than
-    :func:`ced.simulation.size.cases_per_solve` is solved in parts. ``peaks_only`` is the
+    :func:`ced.simulation.size.cases_per_solve` is solved in parts, whose large arrays reuse
+    the memory the process holds (:mod:`ced.simulation.memory`). ``peaks_only`` is the
     solve of a pilot or an error estimate's companion: the elastic peaks and the status,
     without the rigid results (no inverse dynamics) and the histories
     (:func:`ced.response.elastic.elastic_response`).
@@ -64,6 +66,7 @@ def solve_batch(batch: Batch, peaks_only: bool = False,
     dict of str to numpy.ndarray
         The dataset variables.
     """
+    keep_freed_memory()
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
         return _solve_part(batch, peaks_only, allocate)

@@ -145,6 +145,72 @@ def test_rhombus_keeps_its_mode_over_the_pivot_and_through_collinearity():
     assert np.abs(np.sin(rocker)).max() < 1e-12 and np.all(np.cos(rocker) < 0)
 
 
+# Change points (S + L = P + Q) of each kind: collinear at θ = π (g + a = b + c), at θ = 0
+# (|g − a| = |b − c|, the ground shortest: a double crank), at both (a parallelogram).
+CHANGE_POINTS = {"half_turn": (0.4, 0.1, 0.35, 0.15), "zero": (0.25, 0.3, 0.4, 0.35),
+                 "both": (0.3, 0.1, 0.3, 0.1)}
+
+
+def _turning(lengths, theta0, steps, branch=1.0, turns=2, speed=10.0):
+    g, a, b, c = lengths
+    t = (2 * np.pi / speed) * np.arange(turns * steps + 1)[None] / steps
+    motion = kin.input_motion(t, [speed], [theta0])
+    return kin.four_bar([g], [a], [b], [c], motion, [branch])
+
+
+@pytest.mark.parametrize("kind", sorted(CHANGE_POINTS))
+@given(offset=st.floats(0.0, 1.0), branch=st.sampled_from([1.0, -1.0]))
+@settings(max_examples=25, deadline=None)
+def test_change_point_motion_does_not_depend_on_the_steps(kind, offset, branch):
+    """The motion passes straight through the change point however the steps sample it: on
+    64 steps a turn, with the touching angle anywhere between two steps, it is the motion on
+    1024 steps at the same instants. Tracking the nearest solution step by step (before
+    2026-11-27) saw the two touch only where a step fell within 0.01 rad of them: with the
+    change point mid-step, 64 and 128 steps reflected the motion off it (the coupler's
+    velocity jumping by 5.2 rad/s, twice itself), while 256 passed through."""
+    lengths = CHANGE_POINTS[kind]
+    theta0 = np.pi - (10 + offset) * 2 * np.pi / 64
+    coarse, fine = _turning(lengths, theta0, 64, branch), _turning(lengths, theta0, 1024, branch)
+    assert np.abs(np.angle(np.exp(1j * (coarse.link_angle[0]
+                                        - fine.link_angle[0, ::16])))).max() < 1e-6
+    regular = ~coarse.singular[0] & ~fine.singular[0, ::16]
+    assert np.abs(coarse.link_angular_velocity[0][regular]
+                  - fine.link_angular_velocity[0, ::16][regular]).max() < 1e-6
+    # Smooth: no step changes a link's rate by more than its fastest acceleration allows.
+    step = (2 * np.pi / 10.0) / 1024
+    jump = np.abs(np.diff(fine.link_angular_velocity[0], axis=0)).max(axis=0)
+    assert np.all(jump <= 1.01 * np.abs(fine.link_angular_acceleration[0]).max(axis=0) * step
+                  + 1e-9)
+
+
+def test_change_point_labels_flip_once_per_crossing():
+    """The solution's label (left or right of B→D) changes at each crossing of the touching
+    angle and only there: once a turn at π, twice at both 0 and π (the parallelogram stays a
+    parallelogram: coupler parallel to the ground), and a rocking input that swings across π
+    and back crosses it twice a period."""
+    for kind, per_turn in (("half_turn", 1), ("zero", 1), ("both", 2)):
+        r = _turning(CHANGE_POINTS[kind], 0.3, 128)
+        assert np.abs(np.diff(r.branch["coupler"][0])).sum() == 2 * per_turn
+    parallelogram = _turning(CHANGE_POINTS["both"], 0.3, 128)
+    assert np.abs(np.angle(np.exp(1j * parallelogram.link_angle[0, :, 1]))).max() < 1e-12
+    g, a, b, c = CHANGE_POINTS["half_turn"]
+    t = (2 * np.pi / 10.0) * np.arange(129)[None] / 128
+    rocking = kin.four_bar([g], [a], [b], [c], kin.input_motion(t, [10.0], [np.pi + 0.1], [0.5]),
+                           [1.0])
+    assert np.abs(np.diff(rocking.branch["coupler"][0])).sum() == 2
+    assert np.abs(rocking.link_angle[0, -1] - rocking.link_angle[0, 0]).max() < 1e-9
+
+
+def test_change_point_crossing_parity_on_and_off_the_level():
+    """A step exactly on the touching angle keeps the previous step's count (both solutions
+    are one there); a start on it counts from the side the motion moves to."""
+    angle = np.array([[np.pi, 3.5, 4.0, 2 * np.pi + np.pi, 9.5],
+                      [np.pi, 3.0, 2.5, np.pi, 3.5],
+                      [3.0, np.pi, 3.5, 3.0, 2.9]])
+    assert kin._crossing_parity(angle, np.pi).tolist() == [[0, 0, 0, 0, 1], [0, 0, 0, 0, 1],
+                                                           [0, 0, 1, 0, 0]]
+
+
 @pytest.mark.parametrize("offset, branch", [(0.0, 1.0), (0.05, 1.0), (-0.04, -1.0)])
 def test_slider_crank_geometry_and_derivatives(offset, branch):
     speed, a, b = 150.0, 0.15, 0.30
