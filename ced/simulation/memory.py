@@ -26,7 +26,6 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
-import platform
 
 import numpy as np
 
@@ -57,8 +56,16 @@ def keep_freed_memory() -> bool:
     return _applied
 
 
+def _glibc() -> bool:
+    """Whether the process runs on glibc (its confstr says so; elsewhere it is refused)."""
+    try:
+        return (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
 def _set_allocator() -> bool:
-    if os.environ.get("CED_MALLOC", "") == "system" or platform.libc_ver()[0] != "glibc":
+    if os.environ.get("CED_MALLOC", "") == "system" or not _glibc():
         return False
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")

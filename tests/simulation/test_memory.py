@@ -1,10 +1,11 @@
 """ced.simulation.memory: freed arrays are reused without faulting in fresh pages."""
 import os
-import platform
 import subprocess
 import sys
 
 import pytest
+
+from ced.simulation.memory import _glibc
 
 SCRIPT = """
 import resource, numpy as np
@@ -27,7 +28,7 @@ def _run(**env) -> tuple[bool, int]:
     return out[0] == "True", int(out[1])
 
 
-@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="glibc's allocator only")
+@pytest.mark.skipif(not _glibc(), reason="glibc's allocator only")
 def test_a_freed_array_is_reused_without_page_faults():
     applied, faults = _run()
     assert applied
