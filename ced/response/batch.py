@@ -17,7 +17,18 @@ from ..rigid import dyads, kinematics
 from ..rigid import inverse_dynamics as newton_euler
 from ..rigid.inverse_dynamics import BodyProperties, InverseDynamics
 
-__all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families", "step_count"]
+__all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families", "step_count",
+           "MOTION_TURNS", "REPEAT_TOLERANCE"]
+
+#: Input turns after which the rigid motion of a case may repeat: one, or two where it
+#: passes a change point once a turn (and so changes assembly branch once a turn).
+MOTION_TURNS = (1, 2)
+#: Largest difference, in link angle (rad) and in joint position (relative to the longest
+#: link), between two configurations counted as the same. Round-off moves a configuration
+#: near a change point by ~sqrt(ε) (the assembly's square root there: at most 1.8e-7 rad over
+#: the default study's change points); the two branches differ by O(1) rad, and
+#: by ~sqrt(step) ≥ 2.5e-3 rad one step from the change point (10⁶ steps a turn).
+REPEAT_TOLERANCE = 1e-5
 
 
 def case_family(scene: dict) -> str:
@@ -134,6 +145,8 @@ class Batch:
     #: The Newton–Euler systems of that motion solved, by (inertia, gravity bytes): kept by
     #: :meth:`rigid_forces` for the later calls at steps of the grid.
     _forces_on_grid: dict = field(default_factory=dict, repr=False, compare=False)
+    #: :attr:`motion_turns`, once found.
+    _turns: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -151,6 +164,70 @@ class Batch:
         single = self.mechanism_type == "single_link"
         return np.stack([self.lengths["length" if single else name]
                          for name in self.topology.links], axis=1)
+
+    @property
+    def motion_turns(self) -> np.ndarray:
+        """(case,) int: the input turns after which each case's rigid motion repeats, the
+        first of :data:`MOTION_TURNS` whose grid motion (:meth:`rigid_motion`) is back at its
+        start.
+
+        A four-bar at a change point with its crank or ground shortest (or a rotating kite)
+        passes the change point once a turn, straight through, onto the other assembly
+        branch: its motion repeats only every two turns. The motion is compared at steps 0
+        and 1 with the steps one (two) turns on, link angles modulo 2π and joint positions,
+        to :data:`REPEAT_TOLERANCE`: step 1 as well, since a start on the change point itself
+        is the same configuration on either branch. The motion is tracked from the start as
+        the grid motion is, over one turn and a step (two, where some case has not repeated
+        after one). A batch whose assembly solution cannot change repeats every turn (nothing
+        is solved). Dyad linkages are compared alike.
+
+        Raises
+        ------
+        ValueError
+            A case's motion repeats after none of :data:`MOTION_TURNS`.
+        """
+        if self._turns is None:
+            self._turns = self._repeat_turns()
+        return self._turns
+
+    def _repeat_turns(self) -> np.ndarray:
+        """:attr:`motion_turns`, solved."""
+        turns = np.ones(self.size, np.int64)
+        if not self._may_switch_branch():
+            return turns
+        per_turn = self.scenes[0]["time"]["steps_per_revolution"]
+        undecided = np.ones(self.size, bool)
+        for count in MOTION_TURNS:
+            later = count * per_turn
+            # Solved apart, not kept: the kept motion's length sets the neighbours its last
+            # step's interpolated velocities are taken from (a singular step), and a one-turn
+            # case's results stay those of the motion over one turn.
+            grid = self._solve_motion(self.step_size[:, None] * np.arange(later + 2)[None, :])
+            back = _same_configuration(grid, self.link_lengths, later)
+            turns[undecided & back] = count
+            undecided &= ~back
+            if not undecided.any():
+                return turns
+        raise ValueError(f"the rigid motion of case(s) {np.flatnonzero(undecided).tolist()} "
+                         f"does not repeat after {' or '.join(map(str, MOTION_TURNS))} input "
+                         f"turns")
+
+    @property
+    def period_steps(self) -> int:
+        """Steps of the batch's period: :attr:`motion_turns` × steps per revolution, the
+        same for every case (:func:`ced.simulation.simulate.solve_batch` solves the cases of
+        each number of turns apart).
+
+        Raises
+        ------
+        ValueError
+            The cases' motions repeat after different numbers of turns.
+        """
+        turns = np.unique(self.motion_turns)
+        if len(turns) > 1:
+            raise ValueError(f"the cases repeat after {turns.tolist()} input turns: "
+                             f"solve each number of turns as its own batch")
+        return int(turns[0]) * self.scenes[0]["time"]["steps_per_revolution"]
 
     def link_property(self, link: str, group: str, key: str) -> np.ndarray:
         """A ``material`` or ``section`` value of ``link`` for every case, (case,); e.g.
@@ -286,6 +363,22 @@ class Batch:
             return kinematics.single_link(L["length"], motion)
         descriptions = self.descriptions or [describe(s["mechanism"]) for s in self.scenes]
         return dyads.linkage(descriptions, motion, follow)
+
+
+def _same_configuration(motion: kinematics.RigidMotion, lengths: np.ndarray,
+                        later: int) -> np.ndarray:
+    """(case,) bool: the configurations at steps ``later`` and ``later + 1`` of ``motion``
+    are those of steps 0 and 1 (link angles modulo 2π in rad, joint positions relative to the
+    longest link in ``lengths`` (case, link) m, to :data:`REPEAT_TOLERANCE`)."""
+    now, then = [0, 1], [later, later + 1]
+    turned = motion.link_angle[:, then] - motion.link_angle[:, now]
+    angle = np.abs(np.angle(np.exp(1j * turned))).max(axis=(1, 2))
+    moved = np.abs(motion.joint_position[:, then] - motion.joint_position[:, now])
+    position = moved.max(axis=(1, 2, 3)) / lengths.max(axis=1)
+    # A motion that is not finite is not told apart here: the run's check of non-finite
+    # results fails that case (ced.simulation.simulate), not the whole batch.
+    undefined = ~np.isfinite(angle + position)
+    return undefined | ((angle <= REPEAT_TOLERANCE) & (position <= REPEAT_TOLERANCE))
 
 
 _LENGTH_KEYS = {

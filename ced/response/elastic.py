@@ -116,8 +116,15 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only)
     series = result.pop(_SERIES, None)
+    n_out = batch.n_steps // scene["outputs"]["every"] + 1
     if qz is None:  # every case's peaks are its series' (peaks only, spectral)
         result.update(peak_deflection=series.peak_deflection, peak_stress=series.peak_stress)
+    elif qz.shape[1] > n_out:  # a two-turn period longer than the run (_peak_span)
+        if not peaks_only:  # the station fields of the run's steps
+            result.update(_recover(model, np.ascontiguousarray(qz[:, :n_out]), None, True,
+                                   allocate, series))
+        # The peaks (and the amplification) over the whole period, both turns.
+        result.update(_recover(model, qz, qz_static, False, None, series))
     else:
         result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
     relative = result["peak_deflection"] / batch.link_lengths
@@ -146,29 +153,37 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     a fixed number of points then returns (None, None, None) when every case has its series
     (its peaks are the series', :func:`elastic_response`).
 
+    The period is :attr:`ced.response.batch.Batch.period_steps`: one input turn, or two for
+    a motion that passes a change point once a turn; the output steps then run on to the end
+    of that period where the run is shorter (:func:`_peak_span`: its peaks cover both turns).
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
     is solved over the period only, and, unless it is the response itself (a quasi-static
     model), returned at the output steps of :func:`_one_period` only. A spectral periodic
     state (:mod:`ced.response.collocation`) is found after the shooting and the
     forced-resonance check, so that flagged cases need not climb its ladder; the cases it
-    leaves are shot and marched."""
+    leaves are shot and marched. A two-turn period is always shot: the series are in the
+    harmonics of one turn."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
-    ncase, ny, n_steps, h = batch.size, layout.ny, batch.n_steps, batch.step_size
+    ncase, ny, h = batch.size, layout.ny, batch.step_size
     every = scene["outputs"]["every"]
+    time_cfg = scene["time"]
+    quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
+    turns = batch.period_steps // time_cfg["steps_per_revolution"]
+    n_steps = _peak_span(batch.n_steps, batch.period_steps, turns,
+                         quasi_static or time_cfg["start"] == "periodic")
     out_steps = np.arange(0, n_steps + 1, every)
     qz = np.zeros((ncase, len(out_steps), layout.nz))
     if not ny:
         return qz, qz.copy(), None
-    time_cfg = scene["time"]
     spectral = time_cfg["start"] == "periodic" and time_cfg["periodic_solver"] == "spectral"
     # Near a change point or toggle the terms have features narrower than any sampling can
     # see between its samples: a batch holding such a case evaluates every step.
     sharp = bool((status & STATUS_FLAGS["near_singular"]).any())
     series = None
     if (spectral and not full and not sharp and time_cfg["collocation_points"] != "auto"
-            and "elastic_inertia" in model.effects):
+            and not quasi_static and turns == 1):
         # Peaks only, at a fixed number of points (an error estimate's companion): the terms
         # are needed at the collocation points alone, not at every step of the period.
         series = spectral_steady_state(model, None, np.ones(ncase, bool),
@@ -176,10 +191,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         _add_series(result, series)
         if series.solved.all():
             return None, None, None
-    period = period_terms(model, h, time_cfg["steps_per_revolution"], exact=sharp)
+    period = period_terms(model, h, batch.period_steps, exact=sharp)
     if full:
-        status[forced_resonance(model, period)] |= STATUS_FLAGS["resonant"]
-    quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
+        status[forced_resonance(model, period, turns)] |= STATUS_FLAGS["resonant"]
     qz_static = None
     if full or quasi_static:
         # Beside a dynamic response only its peak is read: one period of it is enough.
@@ -199,7 +213,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         one_period = monodromy(scheme, marcher, h, period.period, ny, ncase)
         if full:
             mu, resonant = floquet(one_period, ny)
-            largest = np.abs(mu).max(axis=-1)
+            largest = _per_turn(np.abs(mu).max(axis=-1), turns)
             result["floquet_multiplier_max"] = largest
             status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]
             status[resonant] |= STATUS_FLAGS["resonant"]
@@ -212,7 +226,8 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         # climbing the ladder there costs most and changes no decision.
         flagged = STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"]
         series = spectral_steady_state(model, period,
-                                       (status & STATUS_FLAGS["near_singular"]) == 0,
+                                       ((status & STATUS_FLAGS["near_singular"]) == 0)
+                                       & (turns == 1),
                                        climb=(status & flagged) == 0)
         _add_series(result, series)
         # A series the ladder could not resolve: a harmonic sits on a mode so closely that
@@ -238,6 +253,40 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     elif series is not None:  # peaks only: the solved cases' peaks are their series'
         record[series.solved] = 0.0
     return _expand(layout, period, record, out_steps), qz_static, period
+
+
+def _peak_span(n_steps: int, period: int, turns: int, periodic: bool) -> int:
+    """Steps of the history the response is marched and recovered over: the run's
+    ``n_steps``, or, for a periodic response whose period of ``turns`` input turns (more than
+    one) is longer than the run, the whole ``period``, so that its peaks cover every turn
+    of it (the station fields stay those of the run's steps: :func:`elastic_response`)."""
+    if turns == 1 or not periodic:
+        return n_steps
+    return max(n_steps, period)
+
+
+def _per_turn(multiplier: np.ndarray, turns: int) -> np.ndarray:
+    """A Floquet multiplier's modulus per input turn: ``multiplier`` of a period of ``turns``
+    turns to the power 1/turns.
+
+    A motion that repeats only every two turns has a monodromy over two; its multipliers are
+    those of one turn squared, so their square root is the growth per turn, comparable with
+    other cases' and with the same instability threshold
+    (:data:`ced.response.periodic.INSTABILITY_MARGIN`).
+
+    Parameters
+    ----------
+    multiplier : numpy.ndarray
+        Moduli of the period's multipliers, 1, any shape.
+    turns : int
+        Input turns per period.
+
+    Returns
+    -------
+    numpy.ndarray
+        The moduli per turn, 1, shaped as ``multiplier``.
+    """
+    return multiplier if turns == 1 else multiplier ** (1.0 / turns)
 
 
 def _add_series(result: dict, series: SpectralSteadyState) -> None:

@@ -49,8 +49,8 @@ _BLOCK_BYTES = 50e6
 
 
 def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES,
-                period: PeriodTerms | None = None):
-    """Frozen modes over one input period and the load they carry.
+                period: PeriodTerms | None = None, turns: int = 1):
+    """Frozen modes over one period of the motion and the load they carry.
 
     Parameters
     ----------
@@ -65,16 +65,20 @@ def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES,
         phases and its mass, stiffness and load are those of the frozen system (as they are with
         ``elastic_inertia``: velocity terms only enter the damping), they are taken from it
         instead of being evaluated again.
+    turns : int, optional
+        Input turns of the motion's period (two where it passes a change point once a turn:
+        :attr:`ced.response.batch.Batch.motion_turns`); the samples span them all.
 
     Returns
     -------
     frequency : (case, sample, mode) rad/s, negative for a negative eigenvalue
-    share : (case, harmonic, mode), k = 0 … samples/2: a_ik, the share of harmonic k in the
+    share : (case, harmonic, mode), k = 0 … samples/2: a_ik, the share of harmonic k of the
+        period (k/turns of the input speed) in the
         spectrum of the modal load g_i(t) = φ_i(t)ᵀ F(t) (mass-normalised shapes whose signs
         are carried continuously around the cycle)
     """
     modes = min(modes, model.layout.ny)
-    phases = 2.0 * math.pi * np.arange(samples) / samples
+    phases = 2.0 * math.pi * turns * np.arange(samples) / samples
     times = phases[None, :] / model.batch.speed[:, None]
     effects = model.effects - {"damping", "coriolis"}  # K and F only: no velocity terms
     ncase, ny = model.batch.size, model.layout.ny
@@ -128,9 +132,13 @@ def _damping_ratio(model: Model, omega: np.ndarray) -> np.ndarray:
     return damping["alpha"] / (2.0 * w) + damping["beta"] * w / 2.0
 
 
-def forced_resonance(model: Model, period: PeriodTerms | None = None) -> np.ndarray:
+def forced_resonance(model: Model, period: PeriodTerms | None = None,
+                     turns: int = 1) -> np.ndarray:
     """(case,) bool: some harmonic k ≤ :data:`HARMONICS` lies in some mode's band and carries
     load enough to dominate it, eq. (1) of the module docstring.
+
+    A motion that repeats every two turns loads at half the crank harmonics too,
+    kΩ/2: they are searched alike up to the same frequency.
 
     Parameters
     ----------
@@ -138,6 +146,8 @@ def forced_resonance(model: Model, period: PeriodTerms | None = None) -> np.ndar
         The batch's model (input speed Ω in rad/s, effects, damping).
     period : PeriodTerms, optional
         The batch's terms over one period (:func:`cycle_modes`).
+    turns : int, optional
+        Input turns of the period (:func:`cycle_modes`).
 
     Returns
     -------
@@ -146,12 +156,13 @@ def forced_resonance(model: Model, period: PeriodTerms | None = None) -> np.ndar
     """
     if model.layout.ny == 0:
         return np.zeros(model.batch.size, bool)
-    omega, share = cycle_modes(model, period=period)
+    omega, share = cycle_modes(model, samples=SAMPLES * turns, period=period, turns=turns)
     low, high = omega.min(axis=1), omega.max(axis=1)  # (case, mode)
     zeta = _damping_ratio(model, 0.5 * (low + high))
-    k = np.arange(1, HARMONICS + 1)[None, :, None]
+    k = np.arange(1, HARMONICS * turns + 1)[None, :, None] / turns
     harmonic = k * model.batch.speed[:, None, None]  # (case, k, 1) rad/s
     inside = ((harmonic >= (low * (1.0 - zeta))[:, None, :])
               & (harmonic <= (high * (1.0 + zeta))[:, None, :]))
-    strong = share[:, 1:HARMONICS + 1] >= 2.0 * np.maximum(zeta, ZETA_FLOOR)[:, None, :]
+    strong = (share[:, 1:HARMONICS * turns + 1]
+              >= 2.0 * np.maximum(zeta, ZETA_FLOOR)[:, None, :])
     return (inside & strong).any(axis=(1, 2))

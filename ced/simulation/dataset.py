@@ -74,7 +74,9 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "transverse_wave_speed": (
         ("case", "link"), "m s-1", "transverse wave speed sqrt(mu/rho)", _F64),
     "floquet_multiplier_max": (
-        ("case",), "1", "largest modulus of the Floquet multipliers", _F64),
+        ("case",), "1", "largest modulus of the Floquet multipliers, per input turn (the "
+        "square root of the two-turn monodromy's where the motion repeats only every two "
+        "turns: a change point passed once a turn)", _F64),
     "collocation_points": (
         ("case",), "1", "Fourier collocation points per input period of the periodic steady "
         "state (0 where it was shot)", "int32"),

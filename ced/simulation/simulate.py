@@ -95,6 +95,39 @@ def _into(out: dict[str, np.ndarray], size: int, first: int):
 
 def _solve_part(batch: Batch, peaks_only: bool = False,
                 allocate=None) -> dict[str, np.ndarray]:
+    """Solve a batch of at most :func:`ced.simulation.size.cases_per_solve` cases: its cases
+    of each period (:attr:`ced.response.batch.Batch.motion_turns`) as a batch of their own."""
+    turns = batch.motion_turns
+    if np.all(turns == turns[0]):
+        return _solve_period(batch, peaks_only, allocate)
+    return _solve_by_turns(batch, turns, peaks_only, allocate)
+
+
+def _solve_by_turns(batch: Batch, turns: np.ndarray, peaks_only: bool = False,
+                    allocate=None) -> dict[str, np.ndarray]:
+    """Solve the cases of each number of ``turns`` (case,) apart and gather their results in
+    the batch's order of cases, into ``allocate``'s arrays where given.
+
+    A change-point batch holds cases whose motion repeats every turn and cases whose motion
+    repeats every two: their periods differ, so each is solved over its own, with arrays of
+    one period length."""
+    out: dict[str, np.ndarray] = {}
+    for count in np.unique(turns):
+        cases = np.flatnonzero(turns == count)
+        part = _solve_period(make_batch([batch.scenes[c] for c in cases]), peaks_only)
+        for name, value in part.items():
+            if name not in out:
+                shape = (batch.size,) + value.shape[1:]
+                out[name] = (np.empty(shape, value.dtype) if allocate is None
+                             else allocate(name, shape, value.dtype))
+            out[name][cases] = value
+    return out
+
+
+def _solve_period(batch: Batch, peaks_only: bool = False,
+                  allocate=None) -> dict[str, np.ndarray]:
+    """Solve a batch whose cases repeat after the same number of input turns
+    (:attr:`ced.response.batch.Batch.period_steps`)."""
     scene = batch.scenes[0]
     effects = scene["effects"]
     if effects == "auto":
@@ -118,7 +151,7 @@ def _solve_part(batch: Batch, peaks_only: bool = False,
 def _singular(batch: Batch) -> np.ndarray:
     """(case,) bool: the transmission is singular at some step of the first period (the
     rigid motion alone, without the inverse dynamics: what a peaks-only solve needs)."""
-    period = batch.scenes[0]["time"]["steps_per_revolution"]
+    period = batch.period_steps
     solved = np.arange(min(batch.n_steps, period) + 1)
     return batch.rigid_motion(batch.step_size[:, None] * solved[None, :]).singular.any(axis=1)
 
@@ -128,14 +161,15 @@ def _rigid_outputs(batch: Batch, inertia: bool,
     """Rigid motion and inverse dynamics at the output steps, and the cases whose
     transmission is singular somewhere (case,).
 
-    The motion repeats every input period (steps_per_revolution steps): it is solved over one
-    period and repeated, the link angles advanced by the turns each link makes per period.
+    The motion repeats every period (:attr:`ced.response.batch.Batch.period_steps`: one
+    input turn, or two for a change point passed once a turn): it is solved over one period
+    and repeated, the link angles advanced by the turns each link makes per period.
     Each output is gathered from the solved steps straight into the array ``allocate``
     gives (:func:`_into`: the run's output, not copied again), or a new one.
     """
     scene = batch.scenes[0]
     every = scene["outputs"]["every"]
-    period = scene["time"]["steps_per_revolution"]
+    period = batch.period_steps
     solved = np.arange(min(batch.n_steps, period) + 1)
     steps = np.arange(0, batch.n_steps + 1, every)
     times = batch.step_size[:, None] * solved[None, :]

@@ -13,7 +13,7 @@ import os
 
 from ..problem.errors import SceneError
 from ..problem.mechanism import topology
-from ..response.batch import step_count
+from ..response.batch import MOTION_TURNS, case_family, step_count
 
 __all__ = ["case_bytes", "elastic_dofs", "case_seconds", "solver_bytes", "case_memory",
            "run_memory", "check_run_memory", "cases_per_solve", "machine_memory", "size_text",
@@ -107,7 +107,9 @@ def elastic_dofs(scene: dict) -> int:
 def solver_bytes(scene: dict) -> int:
     """Working arrays of the solver for one case beyond its outputs, bytes: the system over
     one period (:mod:`ced.response.period_terms`: M, C, K, their step factorizations and the
-    projection, 8·P·(5n² + n) for P steps per revolution and n DOFs); the modal analysis holds K
+    projection, 8·P·(5n² + n) for P steps per period and n DOFs: two turns' worth for a
+    change point, whose motion may repeat only every two,
+    :attr:`ced.response.batch.Batch.motion_turns`); the modal analysis holds K
     and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
     3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns.
 
@@ -126,7 +128,8 @@ def solver_bytes(scene: dict) -> int:
         return 0
     modal = scene.get("modal") or {"angles": 0}
     shooting = scene["time"]["start"] == "periodic"
-    period = 8 * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
+    turns = max(MOTION_TURNS) if case_family(scene) == "change_point" else 1
+    period = 8 * turns * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
     return period + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
 
 

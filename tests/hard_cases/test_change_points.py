@@ -15,8 +15,12 @@ from ced.problem.mechanism import dyad_sine_min
 from ced.problem.scene import load_scene
 from ced.response.batch import make_batch
 from ced.response.frequencies import cycle_frequencies, modal_phases
+from ced.response.integrators import integrator_for
+from ced.response.marching import Marcher
 from ced.response.model import build_model, terms_at
-from ced.simulation.simulate import simulate
+from ced.response.period_terms import period_terms
+from ced.response.periodic import INSTABILITY_MARGIN, monodromy
+from ced.simulation.simulate import _peaks, simulate
 from tests.hard_cases.helpers import assert_finite, flags
 
 PARALLELOGRAM = {"type": "four_bar", "ground": 0.3, "crank": 0.1, "coupler": 0.3, "rocker": 0.1}
@@ -148,3 +152,74 @@ def test_modal_frequencies_are_those_of_the_grid_motion():
     on_step = np.flatnonzero(position - lower < 1e-9)[1:]
     assert list(on_step) == [3, 6, 9]
     assert np.allclose(frequency[on_step], on_grid[lower[on_step]], rtol=1e-9, atol=0.0)
+
+
+def two_turn_scene(revolutions):
+    """The crank-shortest change point (its branches meet at θ = π, passed once a turn):
+    its motion repeats only every two turns. Stable at 20 rad/s (multiplier ≈ 0.4 a turn)."""
+    s = scene(CHANGE_POINT, revolutions=revolutions)
+    s["links"]["default"]["section"]["height"] = 0.02
+    s.pop("modal")
+    return s
+
+
+def test_rigid_outputs_of_a_two_turn_change_point_repeat_every_two_turns():
+    # Later turns were copied from the first: the second turn was the first turn's branch
+    # again, up to π off in the link angles of the motion solved through.
+    ds = simulate(two_turn_scene(3))
+    angle = ds.link_angle.values[0]
+    gap = np.abs(np.angle(np.exp(1j * (angle[64:] - angle[:-64]))))  # one turn on
+    assert gap.max() > 1.0
+    assert np.abs(np.angle(np.exp(1j * (angle[128:] - angle[:-128])))).max() < 1e-9
+    assert ds.joint_force.values[0, 64:].max() != ds.joint_force.values[0, :65].max()
+
+
+def test_periodic_state_of_a_two_turn_change_point_returns_after_two_turns():
+    # The periodic start solved over one turn joined the end of a turn to a start on the
+    # other branch: marched two turns from it, the response did not come back.
+    ds = simulate(two_turn_scene(2))
+    deflection = ds.deflection.values[0].astype(float)  # (step, link, station), stored float32
+    scale = np.abs(deflection).max()
+    assert np.abs(deflection[128] - deflection[0]).max() < 1e-5 * scale
+    assert np.abs(deflection[64] - deflection[0]).max() > 0.1 * scale  # not a one-turn period
+
+
+def test_two_turn_change_point_peaks_cover_both_turns():
+    # One revolution asked: the outputs cover it, the peaks the whole two-turn period.
+    one, two = simulate(two_turn_scene(1)), simulate(two_turn_scene(2))
+    assert one.sizes["step"] == 65
+    np.testing.assert_allclose(one.peak_stress.values, two.peak_stress.values, rtol=1e-9)
+    np.testing.assert_allclose(one.dynamic_amplification.values,
+                               two.dynamic_amplification.values, rtol=1e-9)
+    stress = np.abs(two.stress.values[0]).max(axis=(2, 3))  # (step, link)
+    peak = two.peak_stress.values[0]
+    flexible = peak > 0
+    # The second turn holds the crank's peak: the first turn's largest stress is well below.
+    assert np.any(stress[:65, flexible].max(axis=0) < 0.9 * peak[flexible])
+    assert np.allclose(stress[:, flexible].max(axis=0), peak[flexible], rtol=1e-2)
+
+
+def test_two_turn_change_point_multiplier_is_per_turn():
+    # The multipliers of the two-turn monodromy are those of one turn squared: the reported
+    # one is its square root, comparable with one-turn cases' and with the same threshold.
+    s = two_turn_scene(1)
+    ds = simulate(s)
+    batch = make_batch([load_scene(s)])
+    model = build_model(batch)
+    h = batch.step_size
+    terms = period_terms(model, h, 128, exact=True)
+    scheme = integrator_for(load_scene(s)["time"])
+    two_turns = monodromy(scheme, Marcher(scheme, terms, h), h, 128, model.layout.ny, 1)
+    largest = np.abs(np.linalg.eigvals(two_turns.Phi)).max()
+    reported = float(ds.floquet_multiplier_max.values[0])
+    assert reported == pytest.approx(np.sqrt(largest), rel=1e-9)
+    assert ("parametrically_unstable" in flags(ds)) == (reported > 1.0 + INSTABILITY_MARGIN)
+
+
+def test_two_turn_change_point_peaks_only_solve_agrees():
+    # A pilot's or an error estimate's companion solve (peaks only) takes the same two-turn
+    # period and peaks as the full solve.
+    s = two_turn_scene(1)
+    full = simulate(s)
+    peaks = _peaks([load_scene(s)])
+    assert peaks["peak"][0] == pytest.approx(float(full.peak_stress.max()), rel=1e-12)

@@ -134,3 +134,44 @@ def test_forces_at_steps_of_the_grid_are_those_solved_there(mechanism, inertia):
         for name in ("joint_force", "input_torque"):
             assert np.array_equal(getattr(got, name), getattr(want, name)), (steps, name)
     assert len(batch._forces_on_grid) == 1
+
+
+#: Crank = rocker, ground = coupler: passes its change points (θ = 0 and π) twice a turn and
+#: stays a parallelogram, back on its branch after every turn.
+PARALLELOGRAM = {"type": "four_bar", "ground": 0.3, "crank": 0.1, "coupler": 0.3, "rocker": 0.1}
+#: Crank = ground, coupler = rocker, the crank shortest: a rotating kite, whose crank pin
+#: passes over the rocker pivot once a turn (ced.rigid.kinematics._over_pivot).
+ROTATING_KITE = {"type": "four_bar", "ground": 0.2, "crank": 0.2, "coupler": 0.3, "rocker": 0.3}
+#: CHANGE_POINT as a linkage of one RRR dyad: its solutions are tracked the same way.
+CHANGE_POINT_DYADS = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [0.4, 0.0]},
+                      "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+                      "dyads": [{"kind": "RRR", "links": ["coupler", "rocker"],
+                                 "joints": ["B", "C", "D"], "lengths": [0.35, 0.15]}]}
+
+
+@pytest.mark.parametrize("mechanism, turns", [
+    (CHANGE_POINT, 2), (DOUBLE_CRANK_CHANGE_POINT, 2), (ROTATING_KITE, 2),
+    (CHANGE_POINT_DYADS, 2), (PARALLELOGRAM, 1), (CRANK_ROCKER, 1), (WATT_II, 1)],
+    ids=["change_point", "double_crank_change_point", "rotating_kite", "change_point_dyads",
+         "parallelogram", "crank_rocker", "watt_ii"])
+def test_motion_turns_are_the_turns_after_which_the_motion_repeats(mechanism, turns):
+    # The crank (ground) shortest: the change point is passed once a turn, straight through
+    # onto the other branch, and the motion is back only after two turns. The double crank
+    # starts on its change point (θ0 = 0): step N is step 0's configuration, step N + 1 is not.
+    batch = _batch(mechanism)
+    assert batch.motion_turns.tolist() == [turns, turns]
+    assert batch.period_steps == 64 * turns
+    motion = _at(batch, np.arange(2 * 64 + 1))
+    gap = np.abs(np.angle(np.exp(1j * (motion.link_angle[:, 64:] - motion.link_angle[:, :65]))))
+    assert (gap.max() > 0.1) == (turns == 2)  # one turn on: the other branch, or the same
+    back = np.angle(np.exp(1j * (motion.link_angle[:, 128] - motion.link_angle[:, 0])))
+    assert np.abs(back).max() < 1e-6
+
+
+def test_a_batch_of_one_and_two_turn_cases_has_no_single_period():
+    batch = make_batch([load_scene({"mechanism": m, "drive": {"speed": 20.0},
+                                    "time": {"revolutions": 1, "steps_per_revolution": 64}})
+                        for m in (CHANGE_POINT, PARALLELOGRAM)])
+    assert batch.motion_turns.tolist() == [2, 1]
+    with pytest.raises(ValueError, match="input turns"):
+        batch.period_steps
