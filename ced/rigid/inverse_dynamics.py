@@ -20,6 +20,7 @@ its weight to the ground reaction).
 """
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 
@@ -475,13 +476,24 @@ def _with_dyads(pattern: np.ndarray, blocks: tuple | None) -> tuple | None:
     if blocks is None:
         return None
     rows, cols, starts = blocks
+    # Kept by pattern and order: every terms evaluation checks its steps' blocks again.
+    table = _dyad_table(len(pattern), np.asarray(pattern, bool).tobytes(), rows.tobytes(),
+                        cols.tobytes(), starts.tobytes())
+    return rows, cols, starts, table.copy()  # writable: one signature of the kernels
+
+
+@functools.lru_cache(maxsize=32)
+def _dyad_table(n: int, pattern: bytes, rows: bytes, cols: bytes, starts: bytes) -> np.ndarray:
+    """The ``dyads`` table of :func:`_with_dyads` from the bytes of its arrays."""
+    pattern = np.frombuffer(pattern, bool).reshape(n, n)
+    rows, cols, starts = (np.frombuffer(x, np.int64) for x in (rows, cols, starts))
     table = lu_only(starts)
     for k in range(len(starts) - 1):
         found = _dyad_block(pattern, rows[starts[k]:starts[k + 1]],
                             cols[starts[k]:starts[k + 1]])
         if found is not None:
             table[k] = found
-    return rows, cols, starts, table
+    return table
 
 
 def _dyad_block(pattern: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> tuple | None:
