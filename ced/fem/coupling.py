@@ -114,6 +114,15 @@ class Layout:
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
+    @functools.cached_property
+    def projection_rows(self) -> np.ndarray:
+        """The z rows in which the joint-coordinate columns of P may be nonzero, ascending,
+        int64: the rows :func:`_assemble_point` writes (moving joints' translations, the link
+        ends on them, a rigid link's (u0, v0, φ) where its first end moves); every other row
+        is zero at every point (a six-bar benchmark's Watt II 15 of 65, its four-bar 6 of
+        53). The period's terms hold those rows only (:mod:`ced.response.period_terms`)."""
+        return _written_rows(self)
+
     def interior_rows(self) -> np.ndarray:
         """z index of every interior DOF, in y order (after the joint coordinates)."""
         off = self.link_offsets
@@ -439,6 +448,25 @@ def _link_rows(layout: Layout) -> np.ndarray:
         else:
             out.append([off, off + 1, off + 2, -1])
     return np.array(out, np.int64).reshape(-1, 4)
+
+
+def _written_rows(layout: Layout) -> np.ndarray:
+    """:attr:`Layout.projection_rows`: the rows :func:`_assemble_point` writes, by its tests."""
+    joint_rows, ends, rows = _joint_rows(layout), _link_ends(layout), _link_rows(layout)
+    out = {int(r) for r in joint_rows if r >= 0}
+    for (first, second), link in zip(ends, rows):
+        rigid = link[3] < 0
+        moving = (joint_rows[2 * first] >= 0, joint_rows[2 * second] >= 0)
+        for e in range(2):
+            if not (moving[e] or (rigid and e == 1 and moving[0])):
+                continue
+            if not rigid:
+                out.update(int(link[2 * e + a]) for a in range(2))
+            elif e == 0:  # a rigid link's (u0, v0): its first end's translation
+                out.update(int(link[a]) for a in range(2))
+            else:  # its φ, from its second end's
+                out.add(int(link[2]))
+    return np.array(sorted(out), np.int64)
 
 
 @nb.njit(cache=True, nogil=True)
