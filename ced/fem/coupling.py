@@ -123,6 +123,15 @@ class Layout:
         53). The period's terms hold those rows only (:mod:`ced.response.period_terms`)."""
         return _written_rows(self)
 
+    @functools.cached_property
+    def projection_index(self) -> np.ndarray:
+        """(nz,) int64: each z row's place in a compact projection (``compact`` of
+        :func:`projection`), the rows not in :attr:`projection_rows` at the first of its two
+        zero rows (``len(projection_rows)``)."""
+        index = np.full(self.nz, len(self.projection_rows), np.int64)
+        index[self.projection_rows] = np.arange(len(self.projection_rows))
+        return index
+
     def interior_rows(self) -> np.ndarray:
         """z index of every interior DOF, in y order (after the joint coordinates)."""
         off = self.link_offsets
@@ -320,12 +329,17 @@ def projection(
     points: dict[str, np.ndarray] | None = None,
     guide_angle: dict[str, np.ndarray] | None = None,
     slide: dict[str, tuple] | None = None,
+    compact: bool = False,
 ) -> np.ndarray:
     """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
 
     z = P y where y = (joint coordinates, interior DOFs); the interior columns of P are
     constant unit columns (each interior DOF is its own z entry), so only the first nfree
-    columns are built; :meth:`Layout.expand` applies the whole P.
+    columns are built; :meth:`Layout.expand` applies the whole P. With ``compact`` the rows
+    :attr:`Layout.projection_rows` only, then two zero rows, (3, case, step, row + 2,
+    nfree): z row r is row ``layout.projection_index[r]`` of it (the other rows are zero at
+    every point; a Watt II's 15 of 65 rows), so that the terms are formed from a quarter of
+    the memory.
 
     Parameters
     ----------
@@ -344,7 +358,7 @@ def projection(
     ncase, nstep = shape = link_angle.shape[:2]
     if COMPILED and not topo.sleeves and len(layout.constraints) <= 1:
         return _projection_compiled(layout, lengths, link_angle, link_velocity,
-                                    link_acceleration, points, guide_angle)
+                                    link_acceleration, points, guide_angle, compact)
     names = topo.link_names
     # Every jet below has its (case, step) points flattened on the last axis
     # (jets.matmul_points): the products are of 2 × 2 rotations and a few columns, cheap per
@@ -403,12 +417,25 @@ def projection(
         own = [col[c[2]] for c in layout.constraints]
         solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
 
-    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
-    joint_rows = _joint_rows(layout)
+    joint_rows, link_rows, nrow = _row_tables(layout, compact)
+    P = np.zeros((3, ncase * nstep, nrow, len(free)))
     _assemble(H, np.array(free_cols, np.int64), np.array(own, np.int64), solve, every,
-              _link_ends(layout), _link_rows(layout), np.ascontiguousarray(lengths, dtype=float),
+              _link_ends(layout), link_rows, np.ascontiguousarray(lengths, dtype=float),
               nstep, joint_rows, P)
     return P.reshape((3,) + shape + P.shape[2:])
+
+
+def _row_tables(layout: Layout, compact: bool) -> tuple[np.ndarray, np.ndarray, int]:
+    """The rows :func:`_assemble` writes, :func:`_joint_rows` and :func:`_link_rows`, and the
+    rows of P: z's, or with ``compact`` their places in the compact projection
+    (:func:`projection`)."""
+    joint_rows, link_rows = _joint_rows(layout), _link_rows(layout)
+    if not compact:
+        return joint_rows, link_rows, layout.nz
+    index = layout.projection_index
+    compact_rows = lambda rows: np.where(rows >= 0, index[rows], -1)  # noqa: E731
+    return (compact_rows(joint_rows), compact_rows(link_rows),
+            len(layout.projection_rows) + 2)
 
 
 #: Copies of the last point appended to the points axis (see :func:`projection`).
@@ -552,7 +579,8 @@ COMPILED = os.environ.get("CED_KERNEL", "numba") != "numpy"
 def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.ndarray,
                          link_velocity: np.ndarray, link_acceleration: np.ndarray,
                          points: dict[str, np.ndarray] | None,
-                         guide_angle: dict[str, np.ndarray] | None) -> np.ndarray:
+                         guide_angle: dict[str, np.ndarray] | None,
+                         compact: bool = False) -> np.ndarray:
     """:func:`projection` by :func:`_project`, from tables of the layout: each point's jets
     (rotations, H, the point rows, the constraint and its solution) stay in a few hundred
     bytes of scratch instead of arrays over every point with a numpy call per joint and link
@@ -586,12 +614,12 @@ def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.nda
                            for name, _, _ in layout.constraints], np.int64).reshape(-1, 3)
     free = np.array([col[key] for key in layout.free_coordinates], np.int64)
     own = np.array([col[c[2]] for c in layout.constraints], np.int64)
-    joint_rows = _joint_rows(layout)
+    joint_rows, link_rows, nrow = _row_tables(layout, compact)
     flat = lambda x: np.require(x, float, "C").reshape(ncase * nstep, -1)  # noqa: E731
-    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
+    P = np.zeros((3, ncase * nstep, nrow, len(free)))
     _project(flat(np.cos(link_angle)), flat(np.sin(link_angle)), flat(link_velocity),
              flat(link_acceleration), nstep, frame, guide, column, len(coords), point, xy,
-             constraint, free, own, _link_ends(layout), _link_rows(layout),
+             constraint, free, own, _link_ends(layout), link_rows,
              np.ascontiguousarray(lengths, dtype=float), joint_rows, P)
     return P.reshape((3,) + shape + P.shape[2:])
 

@@ -253,9 +253,9 @@ def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str,
     out: dict[str, np.ndarray] = {}
     for start in range(0, len(phases), chunk):
         part = phases[start:start + chunk]
-        terms, P = terms_at(model, h[:, None] * part[None, :])
         # The projection's rows that can be nonzero only (Layout.projection_rows).
-        parts = {"projection": P[:, :, layout.projection_rows],
+        terms, P = terms_at(model, h[:, None] * part[None, :], compact=True)
+        parts = {"projection": P,
                  **{name: getattr(terms, name) for name in _NAMES[:-1]
                                      if getattr(terms, name) is not None}}
         for name, x in parts.items():
