@@ -164,14 +164,30 @@ def test_compiled_projection_is_the_numpy_one_bit_for_bit(monkeypatch, kind, fle
                                   motion.link_angular_velocity,
                                   motion.link_angular_acceleration, None, guides)
     assert np.array_equal(compiled, numpy)
-    _assert_zero_outside_projection_rows(layout, compiled)
+    _assert_zero_outside_projection_rows(layout, compiled, motion.lengths, motion.link_angle,
+                                         motion.link_angular_velocity,
+                                         motion.link_angular_acceleration, None, guides)
 
 
-def _assert_zero_outside_projection_rows(layout, P):
-    """P (…, nz, nfree) is zero, +0.0, in every row but layout.projection_rows."""
+def _assert_zero_outside_projection_rows(layout, P, *args):
+    """P (…, nz, nfree) is zero, +0.0, in every row but layout.projection_rows; given the
+    arguments of ``projection``, its compact jet is those rows, then two zero rows, by both
+    paths."""
     others = np.setdiff1d(np.arange(layout.nz), layout.projection_rows)
     rest = P[..., others, :]
     assert not rest.any() and not np.signbit(rest).any()
+    if not args:
+        return
+    from ced.fem import coupling
+    rows, default = len(layout.projection_rows), coupling.COMPILED
+    for compiled in (True, False):
+        coupling.COMPILED = compiled
+        try:
+            compact = projection(layout, *args, compact=True)
+        finally:
+            coupling.COMPILED = default
+        assert np.array_equal(compact[..., :rows, :], P[..., layout.projection_rows, :])
+        assert compact.shape[-2] == rows + 2 and not compact[..., rows:, :].any()
 
 
 @pytest.mark.parametrize("flexible_links", [("coupler2",), ("coupler", "rocker2"), ("crank",),
@@ -195,7 +211,9 @@ def test_compiled_watt_ii_projection_is_the_numpy_one_bit_for_bit(monkeypatch, f
                                   motion.link_angle, motion.link_angular_velocity,
                                   motion.link_angular_acceleration, model.points)
     assert np.array_equal(compiled, numpy)
-    _assert_zero_outside_projection_rows(model.layout, compiled)
+    _assert_zero_outside_projection_rows(model.layout, compiled, batch.link_lengths,
+                                         motion.link_angle, motion.link_angular_velocity,
+                                         motion.link_angular_acceleration, model.points)
 
 
 @pytest.mark.parametrize("name", ["watt_ii", "stephenson_iii", "press", "shaper", "cylinder"])
