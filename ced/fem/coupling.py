@@ -498,7 +498,8 @@ def _written_rows(layout: Layout) -> np.ndarray:
 
 @nb.njit(cache=True, nogil=True)
 def _assemble(H, free, own, solve, rot, ends, rows, lengths, nstep, joint_rows, P):
-    """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point
+    """Joint and link-end rows of P (3, point, row, nfree; z's rows or the compact ones of
+    :func:`projection`, as the row tables say), zero elsewhere, at every point
     (:func:`_assemble_point`) from ``H`` (3, 2·joints, nx, point), ``solve``
     (3, owned, nfree, point) and ``rot`` (3, 2, 2, link, point), which may have more points
     than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case; P zero on
@@ -627,12 +628,13 @@ def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.nda
 @nb.njit(cache=True, nogil=True)
 def _project(cos, sin, w, al, nstep, frame, guide, column, nx, point, xy, constraint, free,
              own, ends, rows, lengths, joint_rows, P):
-    """P (3, point, nz, nfree) point by point with the arithmetic of the numpy path of
-    :func:`projection` operation for operation (the jets of :mod:`ced.fem.jets`): the link
-    rotation jets, H, the rows of joints at points, one rigid-link constraint solved for its
-    owned coordinate, then :func:`_assemble_point`. ``cos``, ``sin``, ``w``, ``al``
-    (point, link) the rigid link angles' cosine and sine, rad/s, rad/s²; the tables as
-    :func:`_projection_compiled` makes them; P zero on entry."""
+    """P (3, point, row, nfree; as for :func:`_assemble`) point by point with the arithmetic
+    of the numpy path of :func:`projection` operation for operation (the jets of
+    :mod:`ced.fem.jets`): the link rotation jets, H, the rows of joints at points, one
+    rigid-link constraint solved for its owned coordinate, then :func:`_assemble_point`.
+    ``cos``, ``sin``, ``w``, ``al`` (point, link) the rigid link angles' cosine and sine,
+    rad/s, rad/s²; the tables as :func:`_projection_compiled` makes them; P zero on
+    entry."""
     nlink, njoint, nf, nc = cos.shape[1], frame.shape[0], free.shape[0], own.shape[0]
     rot = np.empty((3, 2, 2, nlink))
     H = np.empty((3, 2 * njoint, nx))
