@@ -114,6 +114,24 @@ class Layout:
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 
+    @functools.cached_property
+    def projection_rows(self) -> np.ndarray:
+        """The z rows in which the joint-coordinate columns of P may be nonzero, ascending,
+        int64: the rows :func:`_assemble_point` writes (moving joints' translations, the link
+        ends on them, a rigid link's (u0, v0, φ) where its first end moves); every other row
+        is zero at every point (a six-bar benchmark's Watt II 15 of 65, its four-bar 6 of
+        53). The period's terms hold those rows only (:mod:`ced.response.period_terms`)."""
+        return _written_rows(self)
+
+    @functools.cached_property
+    def projection_index(self) -> np.ndarray:
+        """(nz,) int64: each z row's place in a compact projection (``compact`` of
+        :func:`projection`), the rows not in :attr:`projection_rows` at the first of its two
+        zero rows (``len(projection_rows)``)."""
+        index = np.full(self.nz, len(self.projection_rows), np.int64)
+        index[self.projection_rows] = np.arange(len(self.projection_rows))
+        return index
+
     def interior_rows(self) -> np.ndarray:
         """z index of every interior DOF, in y order (after the joint coordinates)."""
         off = self.link_offsets
@@ -311,12 +329,17 @@ def projection(
     points: dict[str, np.ndarray] | None = None,
     guide_angle: dict[str, np.ndarray] | None = None,
     slide: dict[str, tuple] | None = None,
+    compact: bool = False,
 ) -> np.ndarray:
     """Jet of the joint-coordinate columns of P(t), shape (3, case, step, nz, nfree).
 
     z = P y where y = (joint coordinates, interior DOFs); the interior columns of P are
     constant unit columns (each interior DOF is its own z entry), so only the first nfree
-    columns are built; :meth:`Layout.expand` applies the whole P.
+    columns are built; :meth:`Layout.expand` applies the whole P. With ``compact`` the rows
+    :attr:`Layout.projection_rows` only, then two zero rows, (3, case, step, row + 2,
+    nfree): z row r is row ``layout.projection_index[r]`` of it (the other rows are zero at
+    every point; a Watt II's 15 of 65 rows), so that the terms are formed from a quarter of
+    the memory.
 
     Parameters
     ----------
@@ -335,7 +358,7 @@ def projection(
     ncase, nstep = shape = link_angle.shape[:2]
     if COMPILED and not topo.sleeves and len(layout.constraints) <= 1:
         return _projection_compiled(layout, lengths, link_angle, link_velocity,
-                                    link_acceleration, points, guide_angle)
+                                    link_acceleration, points, guide_angle, compact)
     names = topo.link_names
     # Every jet below has its (case, step) points flattened on the last axis
     # (jets.matmul_points): the products are of 2 × 2 rotations and a few columns, cheap per
@@ -394,12 +417,25 @@ def projection(
         own = [col[c[2]] for c in layout.constraints]
         solve = -jets.matmul_points(jets.inverse_points(rows[:, :, own]), rows[:, :, free_cols])
 
-    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
-    joint_rows = _joint_rows(layout)
+    joint_rows, link_rows, nrow = _row_tables(layout, compact)
+    P = np.zeros((3, ncase * nstep, nrow, len(free)))
     _assemble(H, np.array(free_cols, np.int64), np.array(own, np.int64), solve, every,
-              _link_ends(layout), _link_rows(layout), np.ascontiguousarray(lengths, dtype=float),
+              _link_ends(layout), link_rows, np.ascontiguousarray(lengths, dtype=float),
               nstep, joint_rows, P)
     return P.reshape((3,) + shape + P.shape[2:])
+
+
+def _row_tables(layout: Layout, compact: bool) -> tuple[np.ndarray, np.ndarray, int]:
+    """The rows :func:`_assemble` writes, :func:`_joint_rows` and :func:`_link_rows`, and the
+    rows of P: z's, or with ``compact`` their places in the compact projection
+    (:func:`projection`)."""
+    joint_rows, link_rows = _joint_rows(layout), _link_rows(layout)
+    if not compact:
+        return joint_rows, link_rows, layout.nz
+    index = layout.projection_index
+    compact_rows = lambda rows: np.where(rows >= 0, index[rows], -1)  # noqa: E731
+    return (compact_rows(joint_rows), compact_rows(link_rows),
+            len(layout.projection_rows) + 2)
 
 
 #: Copies of the last point appended to the points axis (see :func:`projection`).
@@ -441,9 +477,29 @@ def _link_rows(layout: Layout) -> np.ndarray:
     return np.array(out, np.int64).reshape(-1, 4)
 
 
+def _written_rows(layout: Layout) -> np.ndarray:
+    """:attr:`Layout.projection_rows`: the rows :func:`_assemble_point` writes, by its tests."""
+    joint_rows, ends, rows = _joint_rows(layout), _link_ends(layout), _link_rows(layout)
+    out = {int(r) for r in joint_rows if r >= 0}
+    for (first, second), link in zip(ends, rows):
+        rigid = link[3] < 0
+        moving = (joint_rows[2 * first] >= 0, joint_rows[2 * second] >= 0)
+        for e in range(2):
+            if not (moving[e] or (rigid and e == 1 and moving[0])):
+                continue
+            if not rigid:
+                out.update(int(link[2 * e + a]) for a in range(2))
+            elif e == 0:  # a rigid link's (u0, v0): its first end's translation
+                out.update(int(link[a]) for a in range(2))
+            else:  # its φ, from its second end's
+                out.add(int(link[2]))
+    return np.array(sorted(out), np.int64)
+
+
 @nb.njit(cache=True, nogil=True)
 def _assemble(H, free, own, solve, rot, ends, rows, lengths, nstep, joint_rows, P):
-    """Joint and link-end rows of P (3, point, nz, nfree), zero elsewhere, at every point
+    """Joint and link-end rows of P (3, point, row, nfree; z's rows or the compact ones of
+    :func:`projection`, as the row tables say), zero elsewhere, at every point
     (:func:`_assemble_point`) from ``H`` (3, 2·joints, nx, point), ``solve``
     (3, owned, nfree, point) and ``rot`` (3, 2, 2, link, point), which may have more points
     than P (padding); ``lengths`` (case, link) m, ``nstep`` points per case; P zero on
@@ -524,7 +580,8 @@ COMPILED = os.environ.get("CED_KERNEL", "numba") != "numpy"
 def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.ndarray,
                          link_velocity: np.ndarray, link_acceleration: np.ndarray,
                          points: dict[str, np.ndarray] | None,
-                         guide_angle: dict[str, np.ndarray] | None) -> np.ndarray:
+                         guide_angle: dict[str, np.ndarray] | None,
+                         compact: bool = False) -> np.ndarray:
     """:func:`projection` by :func:`_project`, from tables of the layout: each point's jets
     (rotations, H, the point rows, the constraint and its solution) stay in a few hundred
     bytes of scratch instead of arrays over every point with a numpy call per joint and link
@@ -558,12 +615,12 @@ def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.nda
                            for name, _, _ in layout.constraints], np.int64).reshape(-1, 3)
     free = np.array([col[key] for key in layout.free_coordinates], np.int64)
     own = np.array([col[c[2]] for c in layout.constraints], np.int64)
-    joint_rows = _joint_rows(layout)
+    joint_rows, link_rows, nrow = _row_tables(layout, compact)
     flat = lambda x: np.require(x, float, "C").reshape(ncase * nstep, -1)  # noqa: E731
-    P = np.zeros((3, ncase * nstep, layout.nz, len(free)))
+    P = np.zeros((3, ncase * nstep, nrow, len(free)))
     _project(flat(np.cos(link_angle)), flat(np.sin(link_angle)), flat(link_velocity),
              flat(link_acceleration), nstep, frame, guide, column, len(coords), point, xy,
-             constraint, free, own, _link_ends(layout), _link_rows(layout),
+             constraint, free, own, _link_ends(layout), link_rows,
              np.ascontiguousarray(lengths, dtype=float), joint_rows, P)
     return P.reshape((3,) + shape + P.shape[2:])
 
@@ -571,12 +628,13 @@ def _projection_compiled(layout: Layout, lengths: np.ndarray, link_angle: np.nda
 @nb.njit(cache=True, nogil=True)
 def _project(cos, sin, w, al, nstep, frame, guide, column, nx, point, xy, constraint, free,
              own, ends, rows, lengths, joint_rows, P):
-    """P (3, point, nz, nfree) point by point with the arithmetic of the numpy path of
-    :func:`projection` operation for operation (the jets of :mod:`ced.fem.jets`): the link
-    rotation jets, H, the rows of joints at points, one rigid-link constraint solved for its
-    owned coordinate, then :func:`_assemble_point`. ``cos``, ``sin``, ``w``, ``al``
-    (point, link) the rigid link angles' cosine and sine, rad/s, rad/s²; the tables as
-    :func:`_projection_compiled` makes them; P zero on entry."""
+    """P (3, point, row, nfree; as for :func:`_assemble`) point by point with the arithmetic
+    of the numpy path of :func:`projection` operation for operation (the jets of
+    :mod:`ced.fem.jets`): the link rotation jets, H, the rows of joints at points, one
+    rigid-link constraint solved for its owned coordinate, then :func:`_assemble_point`.
+    ``cos``, ``sin``, ``w``, ``al`` (point, link) the rigid link angles' cosine and sine,
+    rad/s, rad/s²; the tables as :func:`_projection_compiled` makes them; P zero on
+    entry."""
     nlink, njoint, nf, nc = cos.shape[1], frame.shape[0], free.shape[0], own.shape[0]
     rot = np.empty((3, 2, 2, nlink))
     H = np.empty((3, 2 * njoint, nx))

@@ -245,7 +245,8 @@ def system_terms(
     ----------
     layout : DOF layout
     links : link -> local matrices
-    P : (3, case, step, nz, ny) projection jet
+    P : (3, case, step, row, nfree) projection jet, compact (the ``compact`` of
+        :func:`ced.fem.coupling.projection`: z row r is its row ``layout.projection_index[r]``)
     omega, alpha : (case, step, link) rad/s, rad/s²
     link_loads : link -> (b0, b1, m0): distributed load b0 + s b1 in the link frame, each
         (case, step, 2), N/m and N/m², and a distributed couple m0 (case, step) N m/m or None
@@ -270,11 +271,11 @@ def system_terms(
         M_el = M if inertial else np.zeros(shape)
     K_el = np.zeros(shape) if "elastic_stiffness" in extras else None
     centrifugal = "centrifugal" in effects
-    offsets = layout.link_offsets
+    offsets, index = layout.link_offsets, layout.projection_index
     for i, name in enumerate(topo.links):
         data = links[name]  # stored in split order
-        block = slice(offsets[name], offsets[name] + layout.link_sizes[name])
-        split = _Split(P[:, :, :, block], *layout.row_split(name))
+        rows, columns, varying = layout.row_split(name)
+        split = _Split(P, rows, columns, index[offsets[name] + np.array(varying, np.int64)])
         w = omega[..., i]
         a = alpha[..., i]
         coefficients, matrices = [], []
@@ -303,7 +304,7 @@ def system_terms(
         m = joint_mass[:, k]
         if not np.any(m) or not nf:
             continue
-        off = layout.joint_offsets[joint]
+        off = index[layout.joint_offsets[joint]]  # its two rows are consecutive
         P0, P1, P2 = (P[d, ..., off : off + 2, :] for d in range(3))
         mm = m[:, None, None, None]
         P0T = np.swapaxes(P0, -1, -2)

@@ -211,7 +211,8 @@ def _blocks(cases: np.ndarray, points: int, model: Model) -> list[np.ndarray]:
 
 def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.ndarray
                       ) -> dict[str, np.ndarray | None]:
-    """M, C, K, F and the projection's joint columns at ``points`` equally spaced phases
+    """M, C, K, F and the projection's joint columns (its rows ``layout.projection_rows``,
+    :func:`ced.response.period_terms.evaluate_terms`) at ``points`` equally spaced phases
     2πj/points (j = 0 … points − 1) for the given cases, each (case, points, …).
 
     Taken from the period's samples (exact terms) or its steps where the points are among
@@ -241,10 +242,12 @@ def collocation_terms(model: Model, period: PeriodTerms, points: int, cases: np.
 
 
 def _displacements(layout, projection: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """z = P y at each collocation point: projection (case, P, nz, nfree), y (case, P, ny)."""
+    """z = P y at each collocation point: projection (case, P, row, nfree), its rows
+    ``layout.projection_rows``, y (case, P, ny)."""
     z = np.empty(y.shape[:2] + (layout.nz,))
     expand(np.ascontiguousarray(projection), np.ascontiguousarray(y),
-           np.arange(y.shape[1], dtype=np.int64), layout.interior_rows().astype(np.int64), z)
+           np.arange(y.shape[1], dtype=np.int64), layout.projection_rows,
+           layout.interior_rows().astype(np.int64), z)
     return z
 
 

@@ -349,7 +349,7 @@ def _expand(layout, period: PeriodTerms, y: np.ndarray, steps: np.ndarray) -> np
     """Joint and link displacements z = P y at the given steps (case, step, nz)."""
     z = np.empty(y.shape[:2] + (layout.nz,))
     expand(period.projection, np.ascontiguousarray(y), steps.astype(np.int64),
-           layout.interior_rows().astype(np.int64), z)
+           layout.projection_rows, layout.interior_rows().astype(np.int64), z)
     return z
 
 

@@ -394,35 +394,46 @@ def static_period_packed(K, F, y, ok, perm, rows_ptr, rows_idx, lu_ptr, lu_idx, 
 
 
 @nb.njit(**_JIT)
-def expand(P0, y, steps, interior_rows, z):
+def expand(P0, y, steps, rows, interior_rows, z):
     """Joint and link displacements z = P(step mod P) y at the given steps.
 
-    P0 (case, P, nz, nfree): the joint-coordinate columns of the projection; the interior
-    DOFs y[nfree:] map one to one onto the rows ``interior_rows`` of z
+    P0 (case, P, row, nfree): the rows ``rows`` of the joint-coordinate columns of the
+    projection (the others are zero: :attr:`ced.fem.coupling.Layout.projection_rows`); the
+    interior DOFs y[nfree:] map one to one onto the rows ``interior_rows`` of z
     (:meth:`ced.fem.coupling.Layout.expand`). y (case, nout, ny); steps (nout,) int;
     z (case, nout, nz) filled.
 
     Parameters
     ----------
     P0 : numpy.ndarray
-        Joint-coordinate columns of the projection, shape (case, P, nz, nfree).
+        Rows ``rows`` of the joint-coordinate columns of the projection, shape
+        (case, P, row, nfree).
     y : numpy.ndarray
         Independent DOFs, m, shape (case, nout, ny).
     steps : numpy.ndarray
         Step index of each output, shape (nout,), int.
+    rows : numpy.ndarray
+        The z row of each row of P0, shape (row,), int.
     interior_rows : numpy.ndarray
         Rows of z of the interior DOFs y[nfree:], shape (ny − nfree,), int.
     z : numpy.ndarray
         Output joint and link displacements, m, shape (case, nout, nz), overwritten.
     """
-    ncase, P, nz, nfree = P0.shape
+    ncase, P, nrow, nfree = P0.shape
+    nz = z.shape[2]
     for c in range(ncase):
         for t in range(steps.shape[0]):
             j = steps[t] % P
+            # A zero row of P gives 0.0 + Σ 0·y: +0.0, or NaN where y is not finite.
+            zero = 0.0
+            for m in range(nfree):
+                zero += 0.0 * y[c, t, m]
             for i in range(nz):
+                z[c, t, i] = zero
+            for i in range(nrow):
                 s = 0.0
                 for m in range(nfree):
                     s += P0[c, j, i, m] * y[c, t, m]
-                z[c, t, i] = s
+                z[c, t, rows[i]] = s
             for i in range(interior_rows.shape[0]):
                 z[c, t, interior_rows[i]] += y[c, t, nfree + i]

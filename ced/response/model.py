@@ -423,6 +423,7 @@ def terms_at(
     times: np.ndarray,
     effects: set[str] | None = None,
     extras: frozenset[str] = frozenset(),
+    compact: bool = False,
 ) -> tuple[SystemTerms, np.ndarray]:
     """System terms and the projection value at arbitrary times (case, step).
 
@@ -440,6 +441,8 @@ def terms_at(
         Effects to include; default the scene's.
     extras : frozenset of str, optional
         Extra terms to form: ``"elastic_mass"``, ``"elastic_stiffness"``.
+    compact : bool, optional
+        Return the projection's rows ``layout.projection_rows`` only (the others are zero).
 
     Returns
     -------
@@ -448,7 +451,7 @@ def terms_at(
         coordinates y.
     projection : numpy.ndarray
         The joint-coordinate columns of the projection z = P y, shape (case, step, nz, nfree)
-        (:func:`ced.fem.coupling.projection`).
+        (:func:`ced.fem.coupling.projection`), or (case, step, row, nfree) with ``compact``.
     """
     batch, layout = model.batch, model.layout
     effects = model.effects if effects is None else effects
@@ -460,7 +463,7 @@ def terms_at(
               if motion.guide_angle else None)
     P = projection(layout, batch.link_lengths, motion.link_angle,
                    motion.link_angular_velocity, motion.link_angular_acceleration,
-                   model.points, guides, motion.slide)
+                   model.points, guides, motion.slide, compact=True)
     g = gravity[:, None, :]
     loads, axial = {}, {} if "axial_stiffening" in effects else None
     forces = sleeve_forces = None
@@ -515,7 +518,12 @@ def terms_at(
         _add_sleeve_stiffness(layout, motion, P[0], sleeve_forces, terms.stiffness)
     if "damping" in effects:
         _add_damping(model, terms)
-    return terms, P[0]
+    rows = layout.projection_rows
+    if compact:
+        return terms, P[0, ..., : len(rows), :]
+    full = np.zeros(P.shape[1:3] + (layout.nz, P.shape[-1]))
+    full[..., rows, :] = P[0, ..., : len(rows), :]
+    return terms, full
 
 
 def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces: np.ndarray,
@@ -530,12 +538,19 @@ def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces:
     second-order part, which stores V = N (φ e·ΔU + (offset/2) φ²): K gains
     N offset zφ zφᵀ + N (zφ wᵀ + w zφᵀ), zφ the bar's φ row of P, w = eᵀ(P_Q − P_P). The bar's
     own forces (pivot, end, weight, d'Alembert) act through its ∫N ds like any rigid link's.
+    ``P0`` is the compact projection of :func:`terms_at`.
     """
     topo = layout.topology
     nf = P0.shape[-1]
     if not nf:
         return
     link_offsets, joint_offsets = layout.link_offsets, layout.joint_offsets
+    index = layout.projection_index  # P0 is compact (terms_at): a joint's rows consecutive
+
+    def rows(j):  # a joint's two rows of P0
+        r = index[joint_offsets[j]]
+        return P0[..., r:r + 2, :]
+
     for k, (sleeve, (pivot, bar)) in enumerate(topo.sleeves.items()):
         i = topo.link_names.index(bar)
         base = topo.links[bar][0]
@@ -545,8 +560,7 @@ def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces:
         kq, kp = topo.joint_names.index(pivot), topo.joint_names.index(base)
         offset = np.sum((motion.joint_position[:, :, kq] - motion.joint_position[:, :, kp]) * n,
                         axis=-1)
-        z_phi = P0[..., link_offsets[bar] + 2, :]
-        rows = lambda j: P0[..., joint_offsets[j] : joint_offsets[j] + 2, :]  # noqa: E731
+        z_phi = P0[..., index[link_offsets[bar] + 2], :]
         w = np.einsum("csa,csaf->csf", e, rows(pivot) - rows(base))
         N = sleeve_forces[:, :, k, 0]
         K[..., :nf, :nf] += ((N * offset)[..., None, None] * z_phi[..., :, None]

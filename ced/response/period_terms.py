@@ -61,7 +61,9 @@ class PeriodTerms:
     None: not known). Where the step matrices are sparse, ``order`` is their
     :class:`ced.response.step_pattern.StepOrder` and ``mass``, ``damping``, ``stiffness`` are
     held **packed**, (case, P, nnz) (:func:`ced.response.step_pattern.pack`); :meth:`dense`
-    gives them as matrices either way.
+    gives them as matrices either way. ``projection`` (case, P, row, nfree) holds the rows
+    ``layout.projection_rows`` of P's joint-coordinate columns, the others being zero
+    (:attr:`ced.fem.coupling.Layout.projection_rows`; :func:`ced.response.kernels.expand`).
     """
 
     mass: np.ndarray | None
@@ -242,8 +244,8 @@ def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str,
     -------
     dict of str to numpy.ndarray
         ``mass``, ``damping``, ``stiffness`` (case, phase, ny, ny), ``force`` (case, phase, ny)
-        and ``projection`` (case, phase, nz, nfree); ``mass`` and ``damping`` are absent where
-        no effect forms them.
+        and ``projection`` (case, phase, row, nfree), its rows ``layout.projection_rows`` (the
+        others are zero); ``mass`` and ``damping`` are absent where no effect forms them.
     """
     layout = model.layout
     per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
@@ -251,8 +253,10 @@ def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str,
     out: dict[str, np.ndarray] = {}
     for start in range(0, len(phases), chunk):
         part = phases[start:start + chunk]
-        terms, P = terms_at(model, h[:, None] * part[None, :])
-        parts = {"projection": P, **{name: getattr(terms, name) for name in _NAMES[:-1]
+        # The projection's rows that can be nonzero only (Layout.projection_rows).
+        terms, P = terms_at(model, h[:, None] * part[None, :], compact=True)
+        parts = {"projection": P,
+                 **{name: getattr(terms, name) for name in _NAMES[:-1]
                                      if getattr(terms, name) is not None}}
         for name, x in parts.items():
             if name not in out:

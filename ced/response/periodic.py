@@ -264,7 +264,6 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> floa
     start = _START[r] if r in _START else _START.setdefault(
         r, np.random.default_rng(0).standard_normal(r) + 0.0j)  # fixed: deterministic
     part = np.zeros(ny, complex)
-    eye = np.eye(r)
     for i in near:
         # Φ is real, so μ̄ (also near) adds the conjugate of μ's term: one of each pair.
         weight = 1.0 if mu[i].imag == 0.0 else 2.0 if mu[i].imag > 0.0 else 0.0
@@ -272,7 +271,7 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> floa
             return None
         if weight == 0.0:
             continue
-        lu = _shifted_lu(Phi, mu[i], eye)
+        lu = _shifted_lu(Phi, mu[i])
         if lu is None:
             return None
         v, w = _inverse_iteration(lu, start, 0), _inverse_iteration(lu, start, 2)
@@ -286,13 +285,15 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> floa
     return float(np.linalg.norm(part) / max(total, 1e-300))
 
 
-def _shifted_lu(Phi: np.ndarray, mu: complex, eye: np.ndarray):
+def _shifted_lu(Phi: np.ndarray, mu: complex):
     """LAPACK's LU (lu, piv) of Φ − σI, σ the multiplier μ or, where that is exactly singular
     in floating point (a pivot exactly 0), μ moved by 1e-13 of its size: inverse iteration
     still converges at once (the next multiplier is at least :data:`_CLUSTER` away). None if
     the matrix is not finite."""
     for shift in (mu, mu * (1.0 + 1e-13) + 1e-13):
-        lu, piv, info = scipy.linalg.lapack.zgetrf(Phi - shift * eye)
+        shifted = Phi.astype(complex)  # Φ − σI: the diagonal only (no σ·I of order 3n)
+        shifted.flat[::len(Phi) + 1] -= shift
+        lu, piv, info = scipy.linalg.lapack.zgetrf(shifted, overwrite_a=True)
         if info < 0 or not np.all(np.isfinite(lu)):
             return None
         if info == 0:

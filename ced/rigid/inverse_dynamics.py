@@ -20,6 +20,7 @@ its weight to the ground reaction).
 """
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 
@@ -28,7 +29,7 @@ import numpy as np
 
 from .dyads import point_motion
 from .kinematics import RigidMotion
-from .small_systems import block_order, solve_batch, solve_blocks
+from .small_systems import block_order, lu_only, solve_batch, solve_blocks
 
 __all__ = ["BodyProperties", "InverseDynamics", "inverse_dynamics", "kinetic_energy_rate",
            "Solutions", "solutions", "forces_at"]
@@ -123,7 +124,8 @@ def inverse_dynamics(
         # bodies of a dyad and its joints' forces form one block, solved from the last dyad
         # back to the input (a Watt II's 15 unknowns as 6, 6 and 3). The pattern holds every
         # entry nonzero at some step, so that the blocks hold at all of them.
-        x, ratio = solve_batch(A, rhs, block_order((A != 0).any(axis=(0, 1))))
+        pattern = (A != 0).any(axis=(0, 1))
+        x, ratio = solve_batch(A, rhs, _with_dyads(pattern, block_order(pattern)))
     return _forces(motion, unknowns, _regular(x, ratio, motion.singular))
 
 
@@ -458,11 +460,70 @@ def _blocks(data: tuple, inertia: float, n: int, written: int,
     """The :func:`ced.rigid.small_systems.block_order` of the systems of ``data`` (at
     ``steps``, default all), or one dense block where they are structurally singular."""
     steps = np.arange(data[0].shape[1], dtype=np.int64) if steps is None else steps
-    blocks = block_order(_pattern(data, inertia, n, written, steps.astype(np.int64)))
+    pattern = _pattern(data, inertia, n, written, steps.astype(np.int64))
+    blocks = block_order(pattern)
     if blocks is None:  # structurally singular: one dense LU (as solve_batch)
         whole = np.arange(n, dtype=np.int64)
         blocks = (whole, whole, np.array([0, n], np.int64))
-    return blocks
+    return _with_dyads(pattern, blocks)
+
+
+def _with_dyads(pattern: np.ndarray, blocks: tuple | None) -> tuple | None:
+    """``blocks`` (a :func:`ced.rigid.small_systems.block_order` of the Newton–Euler
+    ``pattern``) with the ``dyads`` table of :func:`ced.rigid.small_systems.solve_blocks`:
+    the blocks of two links' equations in three joint forces (an RRR dyad's), solved in
+    closed form, the others by LU."""
+    if blocks is None:
+        return None
+    rows, cols, starts = blocks
+    # Kept by pattern and order: every terms evaluation checks its steps' blocks again.
+    table = _dyad_table(len(pattern), np.asarray(pattern, bool).tobytes(), rows.tobytes(),
+                        cols.tobytes(), starts.tobytes())
+    return rows, cols, starts, table.copy()  # writable: one signature of the kernels
+
+
+@functools.lru_cache(maxsize=32)
+def _dyad_table(n: int, pattern: bytes, rows: bytes, cols: bytes, starts: bytes) -> np.ndarray:
+    """The ``dyads`` table of :func:`_with_dyads` from the bytes of its arrays."""
+    pattern = np.frombuffer(pattern, bool).reshape(n, n)
+    rows, cols, starts = (np.frombuffer(x, np.int64) for x in (rows, cols, starts))
+    table = lu_only(starts)
+    for k in range(len(starts) - 1):
+        found = _dyad_block(pattern, rows[starts[k]:starts[k + 1]],
+                            cols[starts[k]:starts[k + 1]])
+        if found is not None:
+            table[k] = found
+    return table
+
+
+def _dyad_block(pattern: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> tuple | None:
+    """(first row of body a, of body b, x column of the force on a alone, of the shared
+    force, of the force on b alone) where the block ``rows`` × ``cols`` of the pattern is a
+    dyad's (:func:`ced.rigid.small_systems.solve_blocks`), else None.
+
+    It is when its rows are two bodies' (x, y, moment) equations and its columns three joint
+    forces (x, y), each x (y) force row holding the x (y) components of two of them, one of
+    which the other body's x (y) row holds too, and each moment row none of the other body's
+    own force. The force rows' entries are the unit signs of the joint forces (``_assemble``),
+    the pivots the closed form divides by."""
+    bodies = sorted({int(r) // 3 for r in rows})
+    pairs = sorted({int(c) // 2 for c in cols})
+    if (len(rows) != 6 or len(bodies) != 2 or len(pairs) != 3
+            or sorted(rows) != [3 * i + d for i in bodies for d in range(3)]
+            or sorted(cols) != [2 * u + d for u in pairs for d in range(2)]):
+        return None
+    inside = lambda r: {int(c) for c in cols if pattern[r, c]}  # noqa: E731
+    held = [{c // 2 for c in inside(3 * i)} for i in bodies]
+    if any(len(h) != 2 for h in held) or len(held[0] & held[1]) != 1:
+        return None
+    (shared,) = held[0] & held[1]
+    (alone_a,), (alone_b,) = held[0] - {shared}, held[1] - {shared}
+    for i, own, other in ((bodies[0], alone_a, alone_b), (bodies[1], alone_b, alone_a)):
+        x_cols, y_cols = {2 * own, 2 * shared}, {2 * own + 1, 2 * shared + 1}
+        if (inside(3 * i) != x_cols or inside(3 * i + 1) != y_cols
+                or inside(3 * i + 2) & {2 * other, 2 * other + 1}):
+            return None
+    return 3 * bodies[0], 3 * bodies[1], 2 * alone_a, 2 * shared, 2 * alone_b
 
 
 def _solutions(data: tuple, inertia: float, blocks: tuple) -> tuple[np.ndarray, np.ndarray]:
@@ -558,7 +619,7 @@ def _pattern(data, inertia, n, written, steps):
 
 
 @nb.njit(**_JIT)
-def _solve(data, inertia, rows, cols, starts, x, ratio):
+def _solve(data, inertia, rows, cols, starts, dyads, x, ratio):
     """Assemble and solve, :data:`_CHUNK` steps at a time, every (case, step) system."""
     ncase, nstep, n = x.shape
     centre = np.empty((n // 3, 2))
@@ -574,7 +635,7 @@ def _solve(data, inertia, rows, cols, starts, x, ratio):
             A, b, xs, rs = full if s0 + _CHUNK <= nstep else tail
             for k in range(A.shape[0]):
                 _assemble(data, inertia, c, s0 + k, centre, A[k], b[k])
-            solve_blocks(A, b, xs, rs, rows, cols, starts)
+            solve_blocks(A, b, xs, rs, rows, cols, starts, dyads)
             x[c, s0:s0 + A.shape[0]] = xs
             ratio[c, s0:s0 + A.shape[0]] = rs
 

@@ -164,6 +164,30 @@ def test_compiled_projection_is_the_numpy_one_bit_for_bit(monkeypatch, kind, fle
                                   motion.link_angular_velocity,
                                   motion.link_angular_acceleration, None, guides)
     assert np.array_equal(compiled, numpy)
+    _assert_zero_outside_projection_rows(layout, compiled, motion.lengths, motion.link_angle,
+                                         motion.link_angular_velocity,
+                                         motion.link_angular_acceleration, None, guides)
+
+
+def _assert_zero_outside_projection_rows(layout, P, *args):
+    """P (…, nz, nfree) is zero, +0.0, in every row but layout.projection_rows; given the
+    arguments of ``projection``, its compact jet is those rows, then two zero rows, by both
+    paths."""
+    others = np.setdiff1d(np.arange(layout.nz), layout.projection_rows)
+    rest = P[..., others, :]
+    assert not rest.any() and not np.signbit(rest).any()
+    if not args:
+        return
+    from ced.fem import coupling
+    rows, default = len(layout.projection_rows), coupling.COMPILED
+    for compiled in (True, False):
+        coupling.COMPILED = compiled
+        try:
+            compact = projection(layout, *args, compact=True)
+        finally:
+            coupling.COMPILED = default
+        assert np.array_equal(compact[..., :rows, :], P[..., layout.projection_rows, :])
+        assert compact.shape[-2] == rows + 2 and not compact[..., rows:, :].any()
 
 
 @pytest.mark.parametrize("flexible_links", [("coupler2",), ("coupler", "rocker2"), ("crank",),
@@ -187,3 +211,23 @@ def test_compiled_watt_ii_projection_is_the_numpy_one_bit_for_bit(monkeypatch, f
                                   motion.link_angle, motion.link_angular_velocity,
                                   motion.link_angular_acceleration, model.points)
     assert np.array_equal(compiled, numpy)
+    _assert_zero_outside_projection_rows(model.layout, compiled, batch.link_lengths,
+                                         motion.link_angle, motion.link_angular_velocity,
+                                         motion.link_angular_acceleration, model.points)
+
+
+@pytest.mark.parametrize("name", ["watt_ii", "stephenson_iii", "press", "shaper", "cylinder"])
+def test_projection_is_zero_outside_its_rows(name):
+    """The period's terms keep P's rows Layout.projection_rows only: every other row is
+    zero at every step, for linkages of dyads with points, sliders and RPR sleeves too."""
+    from ced.problem.scene import load_scene
+    from ced.response.batch import make_batch
+    from ced.response.model import build_model, terms_at
+    from tests.rigid.test_dyads import MECHANISMS
+
+    batch = make_batch([load_scene({"mechanism": MECHANISMS[name], "drive": {"speed": w}})
+                        for w in (10.0, 37.0)])
+    model = build_model(batch)
+    _, P = terms_at(model, batch.step_size[:, None] * np.arange(0.0, 40.0, 1.7)[None])
+    _assert_zero_outside_projection_rows(model.layout, P)
+    assert len(model.layout.projection_rows) < model.layout.nz

@@ -111,16 +111,23 @@ def test_static_period_and_expand():
     static_period(terms.stiffness, terms.force, y, ok)
     assert ok.all()
     assert np.allclose(y, np.linalg.solve(terms.stiffness, terms.force[..., None])[..., 0])
-    # z = P0 y[:nfree] with the interior DOFs y[nfree:] on their own rows.
+    # z = P0 y[:nfree] with the interior DOFs y[nfree:] on their own rows, P0 given by its
+    # rows that can be nonzero (here 0, 2, 3 of 5); an infinite y makes the zero rows NaN,
+    # as their products 0 · inf would.
     P0 = rng.standard_normal((2, 4, 5, 2))
+    P0[:, :, [1, 4]] = 0.0
     steps = np.array([0, 3, 5, 9])
     rows = np.array([4, 1])
     ys = rng.standard_normal((2, 4, 4))
+    ys[1, 2, 0] = np.inf
     z = np.empty((2, 4, 5))
-    expand(P0, ys, steps, rows, z)
+    written = np.array([0, 2, 3])
+    expand(np.ascontiguousarray(P0[:, :, written]), ys, steps, written, rows, z)
     want = (P0[:, steps % 4] @ ys[..., :2, None])[..., 0]
     want[..., rows] += ys[..., 2:]
-    assert np.allclose(z, want, rtol=1e-14, atol=1e-14)
+    np.testing.assert_allclose(z, want, rtol=1e-14, atol=1e-14)
+    assert np.isnan(z[1, 2, [1, 4]]).all()
+    assert np.isfinite(np.delete(z.reshape(8, 5), 6, axis=0)).all()
 
 
 def test_a_whole_simulation_through_the_numpy_loop_agrees(monkeypatch):

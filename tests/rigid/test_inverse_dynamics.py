@@ -235,3 +235,34 @@ def test_compiled_assembly_is_the_numpy_one_bit_for_bit(monkeypatch, inertia, st
         batch = make_batch([_scene(mechanism), _scene(mechanism, drive={"speed": 40.0})])
         _assert_same_bits(*_both_paths(monkeypatch, batch.rigid_motion(), batch.bodies,
                                        batch.gravity, inertia))
+
+
+def test_dyads_solved_in_closed_form_as_by_lu(monkeypatch):
+    """Every RRR dyad's block of the Newton–Euler systems is found (one of a four-bar's, two of
+    a Watt II's) and solved in closed form: the joint forces and torque of the LU on every
+    block, to round-off; the numpy assembly uses the same solve (the same bits)."""
+    import ced.rigid.inverse_dynamics as module
+    from ced.response.batch import make_batch
+    from ced.rigid.small_systems import lu_only
+    from tests.rigid.test_dyads import MECHANISMS, _scene
+
+    four_bar = _four_bar(0.5, 0.1, 0.45, 0.35, 1.0)
+    batch = make_batch([_scene(MECHANISMS["watt_ii"]),
+                        _scene(MECHANISMS["watt_ii"], drive={"speed": 40.0})])
+    cases = ((four_bar, _bodies([0.1, 0.45, 0.35]), 1),
+             (batch.rigid_motion(), batch.bodies, 2))
+    with_dyads = module._with_dyads
+    for motion, bodies, dyads in cases:
+        found = []
+        monkeypatch.setattr(module, "_with_dyads", lambda p, b: found.append(
+            with_dyads(p, b)) or found[-1])
+        closed = inverse_dynamics(motion, bodies, GRAVITY)
+        assert (found[-1][3][:, 0] >= 0).sum() == dyads
+        monkeypatch.setattr(module, "_with_dyads",
+                            lambda p, b: (*b, lu_only(b[2])))
+        lu = inverse_dynamics(motion, bodies, GRAVITY)
+        for name in ("joint_force", "input_torque"):
+            x, y = getattr(closed, name), getattr(lu, name)
+            np.testing.assert_allclose(x, y, rtol=0, atol=1e-12 * np.abs(y).max())
+        monkeypatch.undo()
+        _assert_same_bits(*_both_paths(monkeypatch, motion, bodies, GRAVITY, True))

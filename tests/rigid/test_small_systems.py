@@ -68,3 +68,39 @@ def test_block_solve_matches_the_dense_one(sizes, seed):
 def test_structurally_singular_pattern_has_no_block_order():
     pattern = np.array([[True, True], [False, False]])
     assert block_order(pattern) is None
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), signs=st.lists(st.sampled_from([-1.0, 1.0]),
+                                                      min_size=8, max_size=8))
+def test_dyad_block_in_closed_form_is_the_lu_solution(seed, signs):
+    """A dyad's block (two bodies' x, y, moment rows in three joint forces: F_p on body a, F_m
+    on both, F_q on body b; unit signs in the force rows) under a block solved by LU: the
+    closed form gives the LU's solution and Hadamard ratio to round-off, and fails as the LU
+    does where the two bodies' arms across the middle joint are parallel (a toggle)."""
+    rng = np.random.default_rng(seed)
+    n = 7  # rows 0…5 the dyad, row 6 an input torque solved after it
+    A = np.zeros((2, 5, n, n))
+    sa_p, sa_m, sb_m, sb_q = signs[:4]
+    for r, (p, m) in ((0, (sa_p, sa_m)), (3, (sb_m, sb_q))):
+        cols = (0, 2) if r == 0 else (2, 4)
+        A[..., r, cols[0]], A[..., r, cols[1]] = p, m
+        A[..., r + 1, cols[0] + 1], A[..., r + 1, cols[1] + 1] = p, m
+        A[..., r + 2, cols[0]:cols[1] + 2] = rng.uniform(-0.5, 0.5, (2, 5, 4))
+    A[..., 6, :6] = rng.standard_normal((2, 5, 6))
+    A[..., 6, 6] = signs[4] * rng.uniform(0.5, 2.0, (2, 5))
+    # One toggle: no moment of F_p, F_q, and the two moment rows' F_m entries parallel.
+    A[1, 2, 2, 0:2] = A[1, 2, 5, 4:6] = 0.0
+    A[1, 2, 5, 2:4] = 0.5 * A[1, 2, 2, 2:4]
+    b = rng.standard_normal((2, 5, n))
+    pattern = (A != 0).any(axis=(0, 1))
+    order = block_order(pattern)
+    assert order is not None and list(np.diff(order[2])) == [6, 1]
+    dyads = np.array([[0, 3, 0, 2, 4], [-1] * 5], np.int64)
+    x, ratio = solve_batch(A, b, (*order, dyads))
+    x_lu, ratio_lu = solve_batch(A, b, order)
+    regular = ratio_lu > 1e-12
+    assert ratio[1, 2] < 1e-12 and ratio_lu[1, 2] < 1e-12
+    np.testing.assert_allclose(ratio[regular], ratio_lu[regular], rtol=1e-12)
+    np.testing.assert_allclose(x[regular], x_lu[regular], rtol=1e-10,
+                               atol=1e-12 * np.abs(x_lu[regular]).max())
