@@ -111,6 +111,34 @@ def test_a_batch_is_solved_case_by_case():
         assert batch.iterations[i] == one.iterations[0]
 
 
+def test_a_warm_start_reaches_the_cold_solution_in_fewer_iterations():
+    # A guess near the solution (as a coarser mesh's series is to a finer one's) starts
+    # GMRES from its residual; the stopping test stays relative to the force.
+    M, C, K, F = _system(32, 5, seed=3, variation=0.8)
+    speed = np.array([3.0])
+    cold = solve_periodic(K, F, speed, M, C)
+    rng = np.random.default_rng(0)
+    guess = cold.displacement * (1 + 1e-3 * rng.standard_normal(cold.displacement.shape))
+    warm = solve_periodic(K, F, speed, M, C, initial=guess)
+    assert cold.converged[0] and warm.converged[0]
+    assert warm.iterations[0] < cold.iterations[0]
+    assert warm.residual[0] <= 1e-6
+    np.testing.assert_allclose(warm.displacement, cold.displacement, rtol=0,
+                               atol=1e-5 * np.abs(cold.displacement).max())
+
+
+def test_a_zero_or_poor_guess_is_a_cold_start():
+    # A zero guess is the cold start bit for bit; a guess farther from the solution than
+    # zero (or not finite) is dropped, so it costs no more than the cold start.
+    M, C, K, F = _system(16, 3, seed=5)
+    speed = np.array([2.0])
+    cold = solve_periodic(K, F, speed, M, C)
+    for guess in (np.zeros_like(F), -10 * cold.displacement, np.full_like(F, np.nan)):
+        again = solve_periodic(K, F, speed, M, C, initial=guess)
+        np.testing.assert_array_equal(again.displacement, cold.displacement)
+        assert again.iterations[0] == cold.iterations[0]
+
+
 def test_the_series_converges_exponentially_on_a_smooth_system():
     # A Mathieu-type oscillator, x'' + 0.05 x' + (4 + 1.5 cos θ) x = cos θ (Ω = 1), away from
     # its instability tongues: the collocation error falls by orders of magnitude with every
