@@ -340,10 +340,11 @@ def combine(peak: np.ndarray, companion_peaks: list[np.ndarray], factors: list[f
 
 def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
                     first_frequency: Callable[[], np.ndarray], step_size: np.ndarray,
-                    solve: Callable[[list[dict]], np.ndarray],
+                    solve: Callable[[list[dict], list | None], np.ndarray],
                     known: dict[int, float] | None = None,
                     spectral_tail: np.ndarray | None = None,
-                    collocation_points: np.ndarray | None = None) -> np.ndarray:
+                    collocation_points: np.ndarray | None = None,
+                    guesses: list | None = None) -> np.ndarray:
     """``error_estimate`` of each case from its companion solutions.
 
     Parameters
@@ -360,8 +361,9 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
     step_size : (case,) array
         Each case's time step, s.
     solve : callable
-        list of scenes → (n,) peak stress, Pa, NaN where a companion could not be solved
-        (injected by :mod:`ced.simulation.simulate`, which batches the companions like any run).
+        (list of scenes, their initial guesses or None) → (n,) peak stress, Pa, NaN where a
+        companion could not be solved (injected by :mod:`ced.simulation.simulate`, which
+        batches the companions like any run).
     known : dict, optional
         case → estimate of cases that already have one (``discretization: auto``'s ladders
         are their companions).
@@ -372,6 +374,13 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
     collocation_points : (case,) int array, optional
         The Fourier collocation points of those cases (0 for the others); their companions
         are solved at the same points. Required with ``spectral_tail``.
+    guesses : list, optional
+        Per case, its series in mesh-independent terms
+        (:func:`ced.response.warm_start.mesh_free_samples`) or None: the initial guess of its
+        mesh companion's GMRES, which differs from the case's own solution by the mesh's
+        error only (measured on whole chunks of the default study: 19 % fewer companion
+        iterations on double cranks, 40 % on triple rockers, 73 % on crank-rockers). The
+        estimate is unchanged within GMRES's tolerance (by at most 3e-5 there).
 
     Returns
     -------
@@ -400,7 +409,9 @@ def error_estimates(scenes: list[dict], peak: np.ndarray, failed: np.ndarray,
     terms = np.where(series, SAFETY_TAIL * tail, 0.0)
     for slot in range(max(len(p) for p in plans.values())):
         cases = [i for i in wanted if len(plans[i]) > slot]
-        companion_peak = solve([plans[i][slot].scene for i in cases])
+        starts = (None if guesses is None else
+                  [guesses[i] if points[i] else None for i in cases])
+        companion_peak = solve([plans[i][slot].scene for i in cases], starts)
         factor = np.array([plans[i][slot].factor for i in cases])
         terms[cases] += combine(peak[cases], [companion_peak], [1.0]) * factor
     estimate[wanted] = terms[wanted]

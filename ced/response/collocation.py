@@ -43,6 +43,7 @@ from .model import Model, build_model
 from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
 from .spectral import evaluate, solve_periodic
 from .step_pattern import unpack
+from .warm_start import mesh_free_samples, reduced_from_samples
 
 __all__ = ["SpectralSteadyState", "spectral_steady_state", "resample", "spectral_tail",
            "START_POINTS", "MAX_POINTS", "MAX_ITERATIONS", "LADDER_ITERATIONS",
@@ -72,6 +73,13 @@ PEAK_SAMPLES = 8
 #: Bytes of collocation terms held at once (cases are solved in blocks of this size).
 _BLOCK_BYTES = 50e6
 _TERMS = ("mass", "damping", "stiffness", "force", "projection")
+#: Series at fewer points than this are kept as their companions' initial guesses. A case
+#: that climbs to MAX_POINTS sits on a resonance of a high harmonic, which the companion's
+#: coarser mesh shifts: its series is no better a start than zero there (measured on the
+#: default study: at P = 128, 2,810 → 1,855 companion iterations on a triple-rocker chunk,
+#: 4,584 → 3,335 on a double-crank chunk; at P = 256, 1,601 → 1,754 and 645 → 1,391, where
+#: restarted GMRES stalled from the guess and the case was solved again from zero).
+_KEEP_GUESS_BELOW = MAX_POINTS
 
 
 @dataclass
@@ -88,6 +96,10 @@ class SpectralSteadyState:
     :data:`TAIL_TOLERANCE` at the last level solved, because the next level's GMRES did not
     converge or :data:`MAX_POINTS` was reached: their series misses harmonics the response
     holds, and the tail is no bound on the error (the caller flags them ``resonant``).
+    ``samples`` (case,) object, where asked for: each solved case's series at its collocation
+    points in mesh-independent terms (:func:`ced.response.warm_start.mesh_free_samples`,
+    (points, m) m and rad; None for the others and at :data:`MAX_POINTS`), the initial guess
+    of its error estimate's companion.
     """
 
     solved: np.ndarray
@@ -97,11 +109,13 @@ class SpectralSteadyState:
     peak_deflection: np.ndarray
     peak_stress: np.ndarray
     unresolved: np.ndarray
+    samples: np.ndarray | None = None
 
 
 def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: np.ndarray,
                           steps: int | None = None, climb: np.ndarray | None = None,
-                          history: bool = True) -> SpectralSteadyState:
+                          history: bool = True, samples: bool = False,
+                          guesses: list | None = None) -> SpectralSteadyState:
     """Periodic steady state of the ``candidates`` (case,) bool by Fourier collocation, at
     the scene's ``time.collocation_points``: adaptive (``auto``, module docstring) or fixed.
 
@@ -124,6 +138,14 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
         Evaluate the series at every step of the period (``displacement``); without it (an
         error estimate's companion, which reads the peaks alone) ``displacement`` is None:
         that evaluation cost 7 % of a crank-rocker chunk's companions.
+    samples : bool, optional
+        Keep each solved case's series in mesh-independent terms (``samples``): the initial
+        guesses of its companion.
+    guesses : list, optional
+        Per case, such samples of another mesh of the case at this model's collocation
+        points, or None: the initial guesses of GMRES (a companion's solve starts from its
+        scene's series, which differs from its own by the mesh's error only). Guesses of
+        another number of points are ignored.
 
     Returns
     -------
@@ -137,7 +159,8 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
         displacement=np.zeros((ncase, steps, layout.ny)) if history else None,
         points=np.zeros(ncase, np.int64), tail=np.full(ncase, np.nan),
         peak_deflection=np.zeros((ncase, nlink)), peak_stress=np.zeros((ncase, nlink)),
-        unresolved=np.zeros(ncase, bool))
+        unresolved=np.zeros(ncase, bool),
+        samples=np.full(ncase, None, object) if samples else None)
     todo = np.flatnonzero(candidates)
     fixed = batch.scenes[0]["time"]["collocation_points"]
     adaptive = fixed == "auto"
@@ -153,7 +176,9 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
             solution = solve_periodic(terms["stiffness"], terms["force"], batch.speed[block],
                                       terms["mass"], terms["damping"],
                                       maxiter=MAX_ITERATIONS if points == START_POINTS
-                                      else LADDER_ITERATIONS)
+                                      else LADDER_ITERATIONS,
+                                      initial=_initial(model, block, terms["projection"],
+                                                       guesses))
             # A case that does not converge keeps the series of its last level, unresolved,
             # or, at the first, is shot.
             out.unresolved[block[~solution.converged & out.solved[block]]] = True
@@ -168,6 +193,13 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
             out.tail[ok] = tail
             out.peak_deflection[ok] = peak_deflection
             out.peak_stress[ok] = peak_stress
+            if samples:  # a lower level's series is no guess at these points
+                out.samples[ok] = None
+            if samples and points < _KEEP_GUESS_BELOW:
+                kept = mesh_free_samples(model, ok, terms["projection"][solution.converged],
+                                         z, y)
+                for i, case in enumerate(ok):
+                    out.samples[case] = kept[i]
             if history:
                 out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
             if adaptive:
@@ -179,6 +211,21 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
         todo = np.concatenate(retry) if retry else todo[:0]
         points *= 2
     return out
+
+
+def _initial(model: Model, block: np.ndarray, projection: np.ndarray,
+             guesses: list | None) -> np.ndarray | None:
+    """GMRES's initial guesses (block, P, ny) from the cases' ``guesses`` at these P points
+    (zero for a case without one), or None where no case has one."""
+    P = projection.shape[1]
+    have = [i for i, case in enumerate(block) if guesses is not None
+            and guesses[case] is not None and guesses[case].shape[0] == P]
+    if not have:
+        return None
+    initial = np.zeros((len(block), P, model.layout.ny))
+    initial[have] = reduced_from_samples(model, block[have], projection[have],
+                                         np.stack([guesses[block[i]] for i in have]))
+    return initial
 
 
 def _evaluate_at_points(model: Model, steps: int, points: int, cases: np.ndarray

@@ -32,7 +32,8 @@ from .period_terms import PeriodTerms, interpolate_periodic, period_terms
 from .periodic import INSTABILITY_MARGIN, floquet, monodromy, periodic_state
 from .resonance import forced_resonance
 
-__all__ = ["elastic_response", "thick_links", "LARGE_DEFLECTION", "THICK_LINK_RATIO"]
+__all__ = ["elastic_response", "thick_links", "LARGE_DEFLECTION", "THICK_LINK_RATIO",
+           "SERIES_SAMPLES"]
 
 #: Deflection / link length above which the linear model's validity is flagged.
 LARGE_DEFLECTION = 0.01
@@ -42,6 +43,10 @@ LARGE_DEFLECTION = 0.01
 THICK_LINK_RATIO = 3.0
 #: Key of ``result`` under which :func:`_response` passes the spectral solution to the recovery.
 _SERIES = "_series"
+#: Key of the result that holds, per case, its spectral series in mesh-independent terms
+#: (:func:`ced.response.warm_start.mesh_free_samples`; None where the case has none): the
+#: initial guess of its error estimate's companion, not a dataset variable.
+SERIES_SAMPLES = "series_samples"
 #: Formulations that model a link as a beam (plane_stress models the continuum).
 BEAMS = ("euler_bernoulli", "timoshenko", "seed_lame")
 
@@ -78,7 +83,7 @@ def _near_singular(batch: Batch) -> np.ndarray:
 
 def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
                      allocate: Callable[[str, tuple, type], np.ndarray] | None = None,
-                     ) -> dict[str, np.ndarray]:
+                     guesses: list | None = None) -> dict[str, np.ndarray]:
     """Elastic variables of the dataset (docs/reference/dataset.md) for a batch, arrays with a
     leading case axis.
 
@@ -87,7 +92,9 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     pin-jointed structure loses its stiffness, buckled). ``peaks_only`` returns the per-link
     peaks, the modal analysis and the status alone — what an error estimate's companion or a
     pilot needs — without the station fields, the quasi-static response (dynamic
-    amplification) and the forced-resonance check.
+    amplification) and the forced-resonance check. A full solve whose scenes ask for an
+    error estimate adds :data:`SERIES_SAMPLES`, the initial guesses of their companions
+    (``guesses``, per case: a companion's spectral solve starts from them).
 
     Parameters
     ----------
@@ -100,6 +107,9 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     allocate : callable, optional
         ``allocate(name, shape, dtype)`` gives the arrays the station fields are written into
         (:func:`ced.fem.recovery_kernel.recover`): parts of a larger batch's outputs.
+    guesses : list, optional
+        Per case, the :data:`SERIES_SAMPLES` of another mesh of the case, or None: the initial
+        guesses of a spectral solve at a fixed number of points (a companion's).
 
     Returns
     -------
@@ -114,8 +124,11 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     status[_near_singular(batch)] |= STATUS_FLAGS["near_singular"]
     status[thick_links(batch)] |= STATUS_FLAGS["thick_link"]
     result: dict[str, np.ndarray] = {}
-    qz, qz_static, period = _response(model, status, result, full=not peaks_only)
+    qz, qz_static, period = _response(model, status, result, full=not peaks_only,
+                                      guesses=guesses)
     series = result.pop(_SERIES, None)
+    if series is not None and series.samples is not None:
+        result[SERIES_SAMPLES] = series.samples
     n_out = batch.n_steps // scene["outputs"]["every"] + 1
     if qz is None:  # every case's peaks are its series' (peaks only, spectral)
         result.update(peak_deflection=series.peak_deflection, peak_stress=series.peak_stress)
@@ -143,7 +156,8 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     return result
 
 
-def _response(model: Model, status: np.ndarray, result: dict, full: bool = True):
+def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
+              guesses: list | None = None):
     """Joint and link displacements z at the output steps, dynamic and quasi-static
     (case, out_step, nz), and the terms over one period (None without elastic DOFs); adds the
     Floquet results of a periodic start, and the series of a spectral one, to ``result``,
@@ -163,7 +177,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
     state (:mod:`ced.response.collocation`) is found after the shooting and the
     forced-resonance check, so that flagged cases need not climb its ladder; the cases it
     leaves are shot and marched. A two-turn period is always shot: the series are in the
-    harmonics of one turn."""
+    harmonics of one turn. ``guesses`` (per case, or None) start a companion's spectral
+    solve (:func:`ced.response.collocation.spectral_steady_state`); a full solve of scenes
+    that ask for an error estimate keeps its series' samples for theirs."""
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, h = batch.size, layout.ny, batch.step_size
@@ -187,7 +203,8 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         # Peaks only, at a fixed number of points (an error estimate's companion): the terms
         # are needed at the collocation points alone, not at every step of the period.
         series = spectral_steady_state(model, None, np.ones(ncase, bool),
-                                       time_cfg["steps_per_revolution"], history=False)
+                                       time_cfg["steps_per_revolution"], history=False,
+                                       guesses=guesses)
         _add_series(result, series)
         if series.solved.all():
             return None, None, None
@@ -228,7 +245,9 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True)
         series = spectral_steady_state(model, period,
                                        ((status & STATUS_FLAGS["near_singular"]) == 0)
                                        & (turns == 1),
-                                       climb=(status & flagged) == 0)
+                                       climb=(status & flagged) == 0,
+                                       samples=full and any(s["outputs"]["error_estimate"]
+                                                            for s in batch.scenes))
         _add_series(result, series)
         # A series the ladder could not resolve: a harmonic sits on a mode so closely that
         # the undamped response is not determined (the collocation system nearly singular).

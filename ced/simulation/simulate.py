@@ -23,7 +23,7 @@ from ..problem.mechanism import topology
 from ..problem.scene import EFFECTS, load_scene
 from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
 from ..response.batch import Batch, make_batch, structure_key
-from ..response.elastic import elastic_response
+from ..response.elastic import SERIES_SAMPLES, elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
 from ..response.model import build_model
 from .dataset import VARIABLES, case_coordinates, make_dataset
@@ -40,7 +40,7 @@ def _as_list(scenes) -> list:
 
 
 def solve_batch(batch: Batch, peaks_only: bool = False,
-                allocate=None) -> dict[str, np.ndarray]:
+                allocate=None, guesses: list | None = None) -> dict[str, np.ndarray]:
     """Solve one batch: rigid motion, inverse dynamics and (when asked) the elastic response.
 
     Returns arrays named as in :data:`ced.simulation.dataset.VARIABLES`, each with a leading
@@ -60,20 +60,25 @@ def solve_batch(batch: Batch, peaks_only: bool = False,
     allocate : callable, optional
         ``allocate(name, shape, dtype)`` gives the arrays the station fields of a batch
         solved in one part are written into (:func:`_into`; default: new arrays).
+    guesses : list, optional
+        Per case, its scene's series in mesh-independent terms, or None: the initial guesses
+        of an error estimate's companions (:func:`ced.response.elastic.elastic_response`).
 
     Returns
     -------
     dict of str to numpy.ndarray
-        The dataset variables.
+        The dataset variables (and, where the scenes ask for an error estimate,
+        :data:`ced.response.elastic.SERIES_SAMPLES`, their companions' initial guesses).
     """
     keep_freed_memory()
     limit = cases_per_solve(batch.scenes[0])
     if batch.size <= limit:
-        return _solve_part(batch, peaks_only, allocate)
+        return _solve_part(batch, peaks_only, allocate, guesses)
     out: dict[str, np.ndarray] = {}
     for first in range(0, batch.size, limit):
         part = _solve_part(make_batch(batch.scenes[first:first + limit]), peaks_only,
-                           _into(out, batch.size, first))
+                           _into(out, batch.size, first),
+                           None if guesses is None else guesses[first:first + limit])
         for name, value in part.items():
             if name not in out:  # filled part by part: no second copy of the histories
                 out[name] = np.empty((batch.size,) + value.shape[1:], value.dtype)
@@ -94,17 +99,17 @@ def _into(out: dict[str, np.ndarray], size: int, first: int):
 
 
 def _solve_part(batch: Batch, peaks_only: bool = False,
-                allocate=None) -> dict[str, np.ndarray]:
+                allocate=None, guesses: list | None = None) -> dict[str, np.ndarray]:
     """Solve a batch of at most :func:`ced.simulation.size.cases_per_solve` cases: its cases
     of each period (:attr:`ced.response.batch.Batch.motion_turns`) as a batch of their own."""
     turns = batch.motion_turns
     if np.all(turns == turns[0]):
-        return _solve_period(batch, peaks_only, allocate)
-    return _solve_by_turns(batch, turns, peaks_only, allocate)
+        return _solve_period(batch, peaks_only, allocate, guesses)
+    return _solve_by_turns(batch, turns, peaks_only, allocate, guesses)
 
 
 def _solve_by_turns(batch: Batch, turns: np.ndarray, peaks_only: bool = False,
-                    allocate=None) -> dict[str, np.ndarray]:
+                    allocate=None, guesses: list | None = None) -> dict[str, np.ndarray]:
     """Solve the cases of each number of ``turns`` (case,) apart and gather their results in
     the batch's order of cases, into ``allocate``'s arrays where given.
 
@@ -114,7 +119,8 @@ def _solve_by_turns(batch: Batch, turns: np.ndarray, peaks_only: bool = False,
     out: dict[str, np.ndarray] = {}
     for count in np.unique(turns):
         cases = np.flatnonzero(turns == count)
-        part = _solve_period(make_batch([batch.scenes[c] for c in cases]), peaks_only)
+        part = _solve_period(make_batch([batch.scenes[c] for c in cases]), peaks_only,
+                             guesses=None if guesses is None else [guesses[c] for c in cases])
         for name, value in part.items():
             if name not in out:
                 shape = (batch.size,) + value.shape[1:]
@@ -125,7 +131,7 @@ def _solve_by_turns(batch: Batch, turns: np.ndarray, peaks_only: bool = False,
 
 
 def _solve_period(batch: Batch, peaks_only: bool = False,
-                  allocate=None) -> dict[str, np.ndarray]:
+                  allocate=None, guesses: list | None = None) -> dict[str, np.ndarray]:
     """Solve a batch whose cases repeat after the same number of input turns
     (:attr:`ced.response.batch.Batch.period_steps`)."""
     scene = batch.scenes[0]
@@ -144,7 +150,7 @@ def _solve_period(batch: Batch, peaks_only: bool = False,
         raise ValueError("discretization: auto must be resolved before solving "
                          "(ced.auto.discretization.resolve_discretization, as simulate does)")
     if scene["discretization"]["formulation"] != "rigid":
-        out.update(elastic_response(batch, out["status"], peaks_only, allocate))
+        out.update(elastic_response(batch, out["status"], peaks_only, allocate, guesses))
     return out
 
 
@@ -219,6 +225,8 @@ def _nonfinite(result: dict[str, np.ndarray]) -> dict[int, list[str]]:
     and the variables that have one."""
     bad: dict[int, list[str]] = {}
     for name, values in result.items():
+        if name == SERIES_SAMPLES:  # not a dataset variable: guesses, checked where used
+            continue
         dtype = VARIABLES[name][3]
         if dtype not in ("float32", "float64") or name in _NAN_WHERE_ABSENT:
             continue
@@ -255,21 +263,23 @@ def _fail_nonfinite(result: dict[str, np.ndarray], messages: list[str]) -> None:
         messages[case] = f"failed: non-finite {', '.join(names)}: {cause}"
 
 
-def _solve_isolated(batch: Batch, peaks_only: bool = False,
-                    allocate=None) -> tuple[dict[str, np.ndarray], list[str]]:
+def _solve_isolated(batch: Batch, peaks_only: bool = False, allocate=None,
+                    guesses: list | None = None) -> tuple[dict[str, np.ndarray], list[str]]:
     """Solve a batch (its station fields into ``allocate``'s arrays, :func:`solve_batch`);
     if it fails, solve its cases one by one and record the failures."""
     try:
-        result, messages = solve_batch(batch, peaks_only, allocate), [""] * batch.size
+        result = solve_batch(batch, peaks_only, allocate, guesses)
+        messages = [""] * batch.size
         _fail_nonfinite(result, messages)
         return result, messages
     except Exception:  # noqa: BLE001 — isolate the failing case(s) below
         if batch.size == 1:
             raise
     results, messages = [], []
-    for scene in batch.scenes:
+    for c, scene in enumerate(batch.scenes):
         try:
-            results.append(solve_batch(make_batch([scene]), peaks_only))
+            results.append(solve_batch(make_batch([scene]), peaks_only,
+                                       guesses=None if guesses is None else [guesses[c]]))
             messages.append("")
         except Exception as err:  # noqa: BLE001 — a failed case is recorded, not fatal
             results.append(None)
@@ -294,8 +304,9 @@ def _solve_isolated(batch: Batch, peaks_only: bool = False,
 
 
 def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
-                  peaks_only: bool = False) -> list[tuple]:
-    """Solve each group of structurally identical scenes as one batch.
+                  peaks_only: bool = False, guesses: list | None = None) -> list[tuple]:
+    """Solve each group of structurally identical scenes as one batch (``guesses``, per
+    scene or None: :func:`solve_batch`'s).
 
     Returns (batch, indices, result, (messages, seconds per case)) per group.
     """
@@ -309,8 +320,9 @@ def _solve_groups(scenes: list[dict], groups: dict[tuple, list[int]],
             indices = group[first:first + limit]
             batch = make_batch([scenes[i] for i in indices])
             start = _time.perf_counter()
-            result, messages = _solve_isolated(batch, peaks_only,
-                                               _into(fields, len(group), first))
+            result, messages = _solve_isolated(
+                batch, peaks_only, _into(fields, len(group), first),
+                None if guesses is None else [guesses[i] for i in indices])
             seconds = (_time.perf_counter() - start) / batch.size
             solved.append((batch, indices, result, (messages, seconds)))
     return solved
@@ -363,12 +375,14 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
     return np.concatenate(parts)[order]
 
 
-def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray]:
+def _peaks(scenes: list[dict], keep_going: bool = False,
+           guesses: list | None = None) -> dict[str, np.ndarray]:
     """Peak stress, first natural frequency (where the scenes ask for a modal analysis) and
     speed of scenes solved in batches, in the order given: the solver injected into
     :func:`ced.auto.discretization.resolve_discretization` (pilots) and
     :func:`ced.auto.error_estimate.error_estimates` (companions, ``keep_going``: a group whose
-    every case fails leaves NaN instead of raising)."""
+    every case fails leaves NaN instead of raising; ``guesses``, per scene or None: the
+    initial guesses of their spectral solves, :func:`solve_batch`)."""
     groups: dict[tuple, list[int]] = {}
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
@@ -378,7 +392,8 @@ def _peaks(scenes: list[dict], keep_going: bool = False) -> dict[str, np.ndarray
              for i in range(0, len(group), limits[key])]
     for indices in parts:
         try:
-            ((batch, _, result, _),) = _solve_groups(scenes, {0: indices}, peaks_only=True)
+            ((batch, _, result, _),) = _solve_groups(scenes, {0: indices}, peaks_only=True,
+                                                     guesses=guesses)
         except Exception:  # noqa: BLE001 — with keep_going: every companion of the part
             if keep_going:  # failed, so these cases get no estimate; their own results stand
                 continue
@@ -451,6 +466,7 @@ def simulate(scenes) -> xr.Dataset:
     results = [result for _, _, result, _ in solved]
     names = set.intersection(*(set(r) for r in results))
     data = {name: _in_order([r[name] for r in results], solved) for name in names}
+    samples = data.pop(SERIES_SAMPLES, None)  # the companions' initial guesses
     data["solve_time"] = np.concatenate(
         [np.full(len(ix), seconds) for _, ix, _, (_, seconds) in solved])[order]
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
@@ -460,10 +476,12 @@ def simulate(scenes) -> xr.Dataset:
             (data["status"] & STATUS_FLAGS["failed"]) > 0,
             lambda: _first_frequency(solved, data, order),
             np.concatenate([b.step_size for b in batches])[order],
-            lambda companions: _peaks(companions, keep_going=True)["peak"],
+            lambda companions, guesses: _peaks(companions, True, guesses)["peak"],
             known={i: r["predicted_error"] for i, r in enumerate(reports) if r},
             spectral_tail=data.get("spectral_tail"),
-            collocation_points=data.get("collocation_points"))
+            collocation_points=data.get("collocation_points"),
+            guesses=None if samples is None else [
+                g if isinstance(g, np.ndarray) else None for g in samples])
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
         unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])

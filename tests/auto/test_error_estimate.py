@@ -161,12 +161,37 @@ def test_failing_companion_leaves_the_case_and_no_estimate(monkeypatch):
 
     real = simulation.solve_batch
 
-    def failing_companions(batch, peaks_only=False, allocate=None):
+    def failing_companions(batch, peaks_only=False, allocate=None, guesses=None):
         if "companion" in batch.scenes[0].get("name", ""):
             raise FloatingPointError("injected")
-        return real(batch, peaks_only, allocate)
+        return real(batch, peaks_only, allocate, guesses)
 
     monkeypatch.setattr(simulation, "solve_batch", failing_companions)
     ds = simulate(_scene(4, 128))
     assert np.isnan(ds.error_estimate[0]) and np.isfinite(ds.peak_stress).all()
     assert int(ds.status[0]) & 16 == 0  # the case itself did not fail
+
+
+def test_a_series_case_hands_its_guess_to_its_mesh_companion_alone():
+    # The scene's series starts its mesh companion's GMRES (same points, ced.response.
+    # warm_start); a shot case's companions are shot and take none.
+    from ced.auto.error_estimate import error_estimates
+    scenes = [load_scene(_scene(8, 256)) for _ in range(2)]
+    given = []
+
+    def solve(companion_scenes, guesses):
+        given.append(guesses)
+        return np.full(len(companion_scenes), 99.0)
+    guess = np.ones((32, 3))
+    estimate = error_estimates(scenes, np.array([100.0, 100.0]), np.zeros(2, bool),
+                               lambda: np.full(2, 100.0), np.full(2, 1e-3), solve,
+                               spectral_tail=np.array([1e-4, np.nan]),
+                               collocation_points=np.array([32, 0]),
+                               guesses=[guess, np.ones((32, 3))])
+    assert len(given) == 1 and given[0][0] is guess and given[0][1] is None
+    assert np.all(np.isfinite(estimate))
+    # Without guesses the solve is told so.
+    given.clear()
+    error_estimates(scenes, np.array([100.0, 100.0]), np.zeros(2, bool),
+                    lambda: np.full(2, 100.0), np.full(2, 1e-3), solve)
+    assert given == [None]

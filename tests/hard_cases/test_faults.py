@@ -62,12 +62,12 @@ def test_a_failing_case_is_recorded_and_the_chunk_completes(config, clean, tmp_p
     victim = rows[1]
     real = ced.simulation.simulate.solve_batch
 
-    def solve_batch(batch, peaks_only=False, allocate=None):
+    def solve_batch(batch, peaks_only=False, allocate=None, guesses=None):
         for scene in batch.scenes:
             material = scene["links"]["coupler"]["material"]["name"]
             if (scene["drive"]["speed"], material) == (victim["speed"], victim["material"]):
                 raise FloatingPointError("injected fault in the victim case")
-        return real(batch, peaks_only, allocate)
+        return real(batch, peaks_only, allocate, guesses)
 
     monkeypatch.setattr(ced.simulation.simulate, "solve_batch", solve_batch)
     path = run_chunk(config, FAMILY, CHUNK, tmp_path / "0.nc")

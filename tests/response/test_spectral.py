@@ -111,6 +111,34 @@ def test_a_batch_is_solved_case_by_case():
         assert batch.iterations[i] == one.iterations[0]
 
 
+def test_a_warm_start_reaches_the_cold_solution_in_fewer_iterations():
+    # A guess near the solution (as a coarser mesh's series is to a finer one's) starts
+    # GMRES from its residual; the stopping test stays relative to the force.
+    M, C, K, F = _system(32, 5, seed=3, variation=0.8)
+    speed = np.array([3.0])
+    cold = solve_periodic(K, F, speed, M, C)
+    rng = np.random.default_rng(0)
+    guess = cold.displacement * (1 + 1e-3 * rng.standard_normal(cold.displacement.shape))
+    warm = solve_periodic(K, F, speed, M, C, initial=guess)
+    assert cold.converged[0] and warm.converged[0]
+    assert warm.iterations[0] < cold.iterations[0]
+    assert warm.residual[0] <= 1e-6
+    np.testing.assert_allclose(warm.displacement, cold.displacement, rtol=0,
+                               atol=1e-5 * np.abs(cold.displacement).max())
+
+
+def test_a_zero_or_poor_guess_is_a_cold_start():
+    # A zero guess is the cold start bit for bit; a guess farther from the solution than
+    # zero (or not finite) is dropped, so it costs no more than the cold start.
+    M, C, K, F = _system(16, 3, seed=5)
+    speed = np.array([2.0])
+    cold = solve_periodic(K, F, speed, M, C)
+    for guess in (np.zeros_like(F), -10 * cold.displacement, np.full_like(F, np.nan)):
+        again = solve_periodic(K, F, speed, M, C, initial=guess)
+        np.testing.assert_array_equal(again.displacement, cold.displacement)
+        assert again.iterations[0] == cold.iterations[0]
+
+
 def test_the_series_converges_exponentially_on_a_smooth_system():
     # A Mathieu-type oscillator, x'' + 0.05 x' + (4 + 1.5 cos θ) x = cos θ (Ω = 1), away from
     # its instability tongues: the collocation error falls by orders of magnitude with every
@@ -159,3 +187,25 @@ def test_bad_shapes_are_refused():
         solve_periodic(K, F[..., :1], [1.0], M, C)
     with pytest.raises(ValueError, match="mass has shape"):
         solve_periodic(K, F, [1.0], M[:, :4], C)
+
+
+def _apply(M, C, K, speed, x):
+    """A x of the collocation system of one case (x (P, n))."""
+    D1, D2 = diff_matrices(x.shape[0])
+    out = np.einsum("pij,pj->pi", K[0], x) + speed ** 2 * np.einsum("pij,pj->pi", M[0], D2 @ x)
+    return out + speed * np.einsum("pij,pj->pi", C[0], D1 @ x)
+
+
+def test_a_case_that_does_not_converge_from_its_guess_is_solved_again_from_zero():
+    # Within too few iterations neither the guess (residual 0.9 ‖F‖) nor zero converges: the
+    # case ends as the cold start does, bit for bit, and reports both attempts' iterations.
+    M, C, K, F = _system(32, 5, seed=3, variation=0.8)
+    speed = np.array([3.0])
+    exact = solve_periodic(K, F, speed, M, C).displacement
+    error = np.random.default_rng(2).standard_normal(F.shape[1:])
+    error *= 0.9 * np.linalg.norm(F) / np.linalg.norm(_apply(M, C, K, speed[0], error))
+    cold = solve_periodic(K, F, speed, M, C, maxiter=10)
+    retried = solve_periodic(K, F, speed, M, C, maxiter=10, initial=exact + error[None])
+    assert not cold.converged[0] and not retried.converged[0]
+    assert retried.iterations[0] == 10 + cold.iterations[0]
+    np.testing.assert_array_equal(retried.displacement, cold.displacement)
