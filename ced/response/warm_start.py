@@ -40,7 +40,7 @@ def _joint_part(model: Model, projection: np.ndarray, joints: np.ndarray) -> np.
     y[..., :joints.shape[-1]] = joints
     z = np.empty(y.shape[:2] + (layout.nz,))
     expand(np.ascontiguousarray(projection), y, np.arange(y.shape[1], dtype=np.int64),
-           layout.interior_rows().astype(np.int64), z)
+           layout.projection_rows, layout.interior_rows().astype(np.int64), z)
     return z
 
 
@@ -56,8 +56,8 @@ def mesh_free_samples(model: Model, cases: np.ndarray, projection: np.ndarray,
     cases : numpy.ndarray
         The batch's cases the series are of, shape (case,), int.
     projection : numpy.ndarray
-        The joint-coordinate columns of z = P y at the collocation points,
-        shape (case, P, nz, nfree).
+        The joint-coordinate columns of z = P y at the collocation points, their rows
+        :attr:`ced.fem.coupling.Layout.projection_rows`, shape (case, P, row, nfree).
     z : numpy.ndarray
         Joint and link displacements at the collocation points, shape (case, P, nz), m.
     y : numpy.ndarray
@@ -95,8 +95,8 @@ def reduced_from_samples(model: Model, cases: np.ndarray, projection: np.ndarray
     cases : numpy.ndarray
         The batch's cases the samples are of, shape (case,), int.
     projection : numpy.ndarray
-        This model's joint-coordinate columns of z = P y at the collocation points,
-        shape (case, P, nz, nfree).
+        This model's joint-coordinate columns of z = P y at the collocation points, their
+        rows :attr:`ced.fem.coupling.Layout.projection_rows`, shape (case, P, row, nfree).
     samples : numpy.ndarray
         Shape (case, P, nfree + 2 × station × flexible link), m and rad.
 

@@ -24,11 +24,12 @@ SCENE["time"]["collocation_points"] = 32
 SCENE["outputs"]["error_estimate"] = True
 
 
-def _projection(model, P):
-    """The joint-coordinate columns of z = P y at P equally spaced phases (case, P, nz, nfree)."""
+def _projection(model, P, compact=False):
+    """The joint-coordinate columns of z = P y at P equally spaced phases (case, P, nz, nfree),
+    or (``compact``) their rows ``layout.projection_rows``, as the solvers hold them."""
     steps = model.batch.scenes[0]["time"]["steps_per_revolution"]
     times = model.batch.step_size[:, None] * (np.arange(P) * (steps / P))[None, :]
-    return terms_at(model, times)[1]
+    return terms_at(model, times, compact=compact)[1]
 
 
 def test_the_samples_of_a_series_fit_back_to_it():
@@ -36,9 +37,9 @@ def test_the_samples_of_a_series_fit_back_to_it():
     # determined by u and v at its stations.
     model = build_model(make_batch([load_scene(SCENE)]))
     P, cases = 8, np.array([0])
-    projection = _projection(model, P)
+    projection = _projection(model, P, compact=True)
     y = np.random.default_rng(1).standard_normal((1, P, model.layout.ny)) * 1e-4
-    z = model.layout.expand(projection, y)
+    z = model.layout.expand(_projection(model, P), y)
     samples = mesh_free_samples(model, cases, projection, z, y)
     np.testing.assert_allclose(reduced_from_samples(model, cases, projection, samples), y,
                                rtol=0, atol=1e-10 * np.abs(y).max())
