@@ -89,8 +89,10 @@ def batch_scaling(setting: tuple[int, int, int], sizes=(100, 1000, 10000), every
     """Time per case of ``setting`` in batches of ``sizes`` cases (speeds spread over the
     sweep): wall, and the process's user and system CPU time (on a shared machine the wall
     time also holds waits for a core; the system time is the kernel's, mostly page faults),
-    with the peak resident memory so far. Output every ``every`` steps so that 10,000 cases'
-    histories fit in memory: the solve is the same, the recorded history thinner."""
+    with the process's peak resident memory so far (in ``run.py`` that of the converged
+    reference solved before: the batches' own is not told apart). Output every ``every``
+    steps so that 10,000 cases' histories fit in memory: the solve is the same, the
+    recorded history thinner."""
     rows = []
     for size in sizes:
         speeds = np.linspace(90.0, 110.0, size)
@@ -103,9 +105,9 @@ def batch_scaling(setting: tuple[int, int, int], sizes=(100, 1000, 10000), every
         rows.append({"batch": size, "seconds_per_case": seconds,
                      "user_seconds_per_case": (after.ru_utime - before.ru_utime) / size,
                      "system_seconds_per_case": (after.ru_stime - before.ru_stime) / size,
-                     "peak_rss_mb": after.ru_maxrss / 1024})
+                     "process_peak_rss_mb": after.ru_maxrss / 1024})
         log(f"ced {setting} batch {size}: {1e3 * seconds:.2f} ms/case (user "
             f"{1e3 * rows[-1]['user_seconds_per_case']:.2f}, system "
             f"{1e3 * rows[-1]['system_seconds_per_case']:.2f}), peak RSS "
-            f"{rows[-1]['peak_rss_mb']:.0f} MB")
+            f"{rows[-1]['process_peak_rss_mb']:.0f} MB (the process's so far)")
     return rows

@@ -319,8 +319,18 @@ def _components(edges: list[list[int]]) -> list[list[int]]:
 
 
 def lu_only(starts: np.ndarray) -> np.ndarray:
-    """The ``dyads`` table of :func:`solve_blocks` that solves every block by LU, given the
-    block boundaries ``starts`` (blocks + 1,)."""
+    """The ``dyads`` table of :func:`solve_blocks` that solves every block by LU.
+
+    Parameters
+    ----------
+    starts : numpy.ndarray
+        The block boundaries, shape (blocks + 1,), int.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (blocks, 5), int64, every entry −1 (no block solved in closed form).
+    """
     return np.full((len(starts) - 1, 5), -1, np.int64)
 
 
