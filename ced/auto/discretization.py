@@ -82,6 +82,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from ..problem.scene import dump_scene
 from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
@@ -382,17 +383,10 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
                                                  space_steps)]
 
 
-def _pilot_key(scene: dict):
-    """A hashable key of a normalized scene without its name: equal keys, equal pilots."""
-    def key(value):
-        if isinstance(value, dict):
-            return tuple(sorted((k, key(v)) for k, v in value.items() if k != "name"))
-        if isinstance(value, (list, tuple)):
-            return tuple(key(v) for v in value)
-        if isinstance(value, np.ndarray):
-            return ("ndarray", value.dtype.str, value.shape, value.tobytes())
-        return value
-    return key(scene)
+def _pilot_key(scene: dict) -> str:
+    """A key of a normalized scene without its name, as canonical JSON
+    (:func:`ced.problem.scene.dump_scene`): equal keys, equal pilots."""
+    return dump_scene({**scene, "name": ""})
 
 
 def _sweep_key(scene: dict):
@@ -521,11 +515,10 @@ def _flexible_links(scene: dict) -> int:
 
 
 def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
-    chosen = copy.deepcopy(scene)
-    chosen["discretization"] = {"formulation": "euler_bernoulli", "elements_per_link": elements,
-                                "elements_across": 2, "modes_per_link": modes}
-    chosen["time"]["steps_per_revolution"] = steps
-    return chosen
+    # New blocks where it differs, the others shared, as for _pilot.
+    return {**scene, "time": {**scene["time"], "steps_per_revolution": steps},
+            "discretization": {"formulation": "euler_bernoulli", "elements_per_link": elements,
+                               "elements_across": 2, "modes_per_link": modes}}
 
 
 def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
@@ -563,9 +556,9 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     # Scenes that differ only in name share their ladders: the pilots of a batch of identical
     # cases are solved once, not once per case.
     representative: dict = {}
-    for i, s in enumerate(scenes):
-        if s["discretization"] == "auto":
-            representative.setdefault(_pilot_key(s), i)
+    keys = {i: _pilot_key(s) for i, s in enumerate(scenes) if s["discretization"] == "auto"}
+    for i, key in keys.items():
+        representative.setdefault(key, i)
     auto = list(representative.values())
     if not auto:
         return scenes, reports
@@ -643,6 +636,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     out = list(scenes)
     for i, scene in enumerate(scenes):
         if scene["discretization"] == "auto":
-            reports[i] = copy.deepcopy(reports[representative[_pilot_key(scene)]])
+            source = representative[keys[i]]
+            if source != i:  # a case that shared its pilots: a report of its own
+                reports[i] = copy.deepcopy(reports[source])
             out[i] = _setting_for(scene, elements, steps, modes)
     return out, reports

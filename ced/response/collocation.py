@@ -39,7 +39,8 @@ from ..fem.recovery import peaks
 from ..fem.recovery_kernel import recover
 from .batch import make_batch
 from .kernels import expand
-from .model import Model, build_model
+from .model import Model
+from .model_cache import model_for
 from .period_terms import PeriodTerms, evaluate_terms, interpolate_periodic
 from .spectral import evaluate, solve_periodic
 from .step_pattern import unpack
@@ -236,7 +237,7 @@ def _evaluate_at_points(model: Model, steps: int, points: int, cases: np.ndarray
     cases alone is built, which costs less than evaluating the others."""
     phases = np.arange(points) * (steps / points)
     if 2 * len(cases) < model.batch.size:
-        sub = build_model(make_batch([model.batch.scenes[i] for i in cases]))
+        sub = model_for(make_batch([model.batch.scenes[i] for i in cases]))
         exact = evaluate_terms(sub, sub.batch.step_size, phases)
         return {name: exact.get(name) for name in _TERMS}
     exact = evaluate_terms(model, model.batch.step_size, phases)

@@ -27,7 +27,8 @@ from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import from_independent, integrator_for, stability_limit, start
 from .kernels import expand, static_period, static_period_packed
 from .marching import Marcher
-from .model import Model, build_model, terms_at
+from .model import Model, terms_at
+from .model_cache import model_for
 from .period_terms import PeriodTerms, interpolate_periodic, period_terms
 from .periodic import INSTABILITY_MARGIN, floquet, monodromy, periodic_state
 from .resonance import forced_resonance
@@ -117,7 +118,7 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
         Dataset variables (displacements in m, stresses in Pa, frequencies in Hz, …) with a
         leading case axis, and ``status``.
     """
-    model = build_model(batch)
+    model = model_for(batch)
     scene = batch.scenes[0]
     check_modes(scene, model.layout.ny)
     status = status.copy()

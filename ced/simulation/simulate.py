@@ -156,7 +156,15 @@ def _solve_period(batch: Batch, peaks_only: bool = False,
 
 def _singular(batch: Batch) -> np.ndarray:
     """(case,) bool: the transmission is singular at some step of the first period (the
-    rigid motion alone, without the inverse dynamics: what a peaks-only solve needs)."""
+    rigid motion alone, without the inverse dynamics: what a peaks-only solve needs).
+
+    Not marched for a four-bar: its singular steps (|sin μ| < 1e-7,
+    :data:`ced.rigid.kinematics.SINGULAR_SIN`) lie inside the exact check of
+    :func:`ced.problem.mechanism.near_singular` (|sin μ| < 0.1 anywhere in the motion), which
+    the elastic response flags anyway; nor for a slider-crank, whose motion has none (a
+    tenth of a small pilot's solve)."""
+    if batch.mechanism_type in ("four_bar", "slider_crank", "single_link"):
+        return np.zeros(batch.size, bool)
     period = batch.period_steps
     solved = np.arange(min(batch.n_steps, period) + 1)
     return batch.rigid_motion(batch.step_size[:, None] * solved[None, :]).singular.any(axis=1)

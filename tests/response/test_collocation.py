@@ -251,12 +251,12 @@ def test_the_few_cases_that_climb_past_the_period_get_the_series_they_get_alone(
     # coordinates must be the whole batch's, or the recovery would read them wrongly.
     from ced.response import collocation
     built = []
-    build = collocation.build_model
+    build = collocation.model_for
 
     def spy(batch):
         built.append(batch.size)
         return build(batch)
-    monkeypatch.setattr(collocation, "build_model", spy)
+    monkeypatch.setattr(collocation, "model_for", spy)
     # 64 steps per revolution: the slow case's series climbs past the period's steps.
     slow = _with(BLIND_SPOT, steps_per_revolution=64)
     slow["drive"]["speed"] = 50.0

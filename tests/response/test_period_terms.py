@@ -165,3 +165,15 @@ def test_written_out_ten_point_sum_equals_the_generic_loop():
     assert np.array_equal(written, generic)
     want = np.einsum("mj,cmjd->cmd", weight, values[:, index])
     assert np.allclose(written, want, rtol=1e-13, atol=1e-13)
+
+
+def test_a_stencil_seen_before_is_kept_read_only():
+    points = np.arange(100) * (64 / 100)
+    index, weight = interpolation_weights(points, 64)
+    again = interpolation_weights(list(points), 64)
+    assert again[0] is index and again[1] is weight
+    other = interpolation_weights(points + 0.25, 64)
+    assert not np.array_equal(other[1], weight)
+    assert interpolation_weights(points, 128)[0] is not index
+    with pytest.raises(ValueError, match="read-only"):
+        weight[0, 0] = 1.0

@@ -177,3 +177,17 @@ def test_packed_quasi_static_solve_equals_numpy(indefinite):
                          o.lu_idx, o.diagonal, o.lu_source)
     assert ok.all()
     assert np.allclose(y, np.linalg.solve(K, F[..., None])[..., 0], rtol=1e-12, atol=1e-12)
+
+
+def test_a_pattern_seen_before_gets_its_kept_order_read_only():
+    pattern = _linkage_pattern(links=2, dofs=8, joints=2)
+    order = step_order(pattern, max_fill=1.0)
+    assert order is not None
+    assert step_order(pattern.copy(), max_fill=1.0) is order
+    assert step_order(pattern, max_fill=0.99) is not order  # another limit: found afresh
+    other = pattern.copy()
+    i, j = np.argwhere(~pattern)[0]
+    other[i, j] = other[j, i] = True
+    assert step_order(other, max_fill=1.0) is not order
+    with pytest.raises(ValueError, match="read-only"):
+        order.perm[0] = 1

@@ -1,0 +1,139 @@
+"""Models reused between the small batches of one process that share their links.
+
+:func:`ced.response.model.build_model` costs a few milliseconds a call whatever the batch's
+size (element matrices, component modes, recovery operators: many small numpy calls). The
+``discretization: auto`` pilots and the error estimate's companions solve many small batches
+of cases already seen, at other steps per revolution: the pilot ladders of the benchmark sweep
+built 50 models in 31 calls, a third of the pilots' time, each of the same links as the
+first (a ladder changes the steps, never the links; its climbers are a subset of the batch
+before). :func:`model_for` keeps the last few models of small batches and serves a batch
+whose every case has the links of some case of a kept model, whatever their speed, time grid,
+outputs other than the stations, or names, none of which a model depends on
+(:func:`model_key`): its model is the kept one's at those cases (every model array but the
+stations has a leading case axis).
+
+The arrays of a kept model are made read-only, so that a consumer writing into one raises
+instead of changing another batch's model.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from collections import OrderedDict
+
+import numpy as np
+
+from ..problem.scene import dump_scene
+from .batch import Batch
+from .model import Model, build_model
+
+__all__ = ["model_for", "model_key", "clear", "MAX_CASES", "MAX_MODELS"]
+
+#: Batches of more cases are built afresh: their build is a small part of their solve, and
+#: their models are large.
+MAX_CASES = 256
+#: Models kept (the least recently used is dropped first).
+MAX_MODELS = 8
+#: Scene keys a model depends on (:func:`ced.response.model.build_model` reads the
+#: mechanism, links, point masses, discretization, effects, damping and output stations;
+#: gravity is kept too: a key that says too much only costs a rebuild).
+_MODEL_KEYS = ("mechanism", "links", "point_masses", "discretization", "effects", "damping",
+               "gravity")
+
+#: Kept models by a serial number: (model, {model key: a case of it}).
+_MODELS: OrderedDict[int, tuple[Model, dict]] = OrderedDict()
+_SERIAL = itertools.count()
+
+
+def model_key(scene: dict) -> str:
+    """What a normalized scene's model depends on, as canonical JSON: equal keys, equal models.
+
+    Written by the standard library's C encoder (:func:`ced.problem.scene.dump_scene`): a
+    recursive image in Python cost a tenth of a millisecond a scene, a fifth of what the
+    pilots saved.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (:func:`ced.problem.scene.load_scene`).
+    """
+    return dump_scene([[scene.get(k) for k in _MODEL_KEYS], scene["outputs"]["stations"]])
+
+
+def _freeze(value) -> None:
+    """Make every array inside a model's field read-only (dicts and dataclasses walked)."""
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    elif isinstance(value, dict):
+        for v in value.values():
+            _freeze(v)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for field in dataclasses.fields(value):
+            _freeze(getattr(value, field.name))
+
+
+def _cases(value, cases: np.ndarray, size: int):
+    """``value`` (a model field) at ``cases`` of its leading case axis of ``size``."""
+    if isinstance(value, np.ndarray):
+        if value.ndim == 0 or value.shape[0] != size:
+            raise ValueError(f"a model array of shape {value.shape} has no case axis")
+        return value[cases]
+    if isinstance(value, dict):
+        return {k: _cases(v, cases, size) for k, v in value.items()}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.replace(value, **{f.name: _cases(getattr(value, f.name), cases, size)
+                                             for f in dataclasses.fields(value)})
+    return value  # None, numbers, strings, sets: no case axis
+
+
+def _at_cases(model: Model, batch: Batch, cases: np.ndarray) -> Model:
+    """``model`` at ``cases`` of its batch, as the model of ``batch``."""
+    if len(cases) == model.batch.size and np.array_equal(cases, np.arange(len(cases))):
+        return dataclasses.replace(model, batch=batch)
+    size = model.batch.size
+    fields = {f.name: _cases(getattr(model, f.name), cases, size)
+              for f in dataclasses.fields(model)
+              if f.name not in ("batch", "layout", "stations", "effects")}
+    return dataclasses.replace(model, batch=batch, **fields)
+
+
+def model_for(batch: Batch) -> Model:
+    """The model of ``batch``: a kept model's at the cases that have the same links
+    (:func:`model_key`), where one holds every case of ``batch``; else
+    :func:`ced.response.model.build_model`'s, kept when the batch is small
+    (:data:`MAX_CASES`).
+
+    Parameters
+    ----------
+    batch : Batch
+        Structurally identical cases.
+
+    Returns
+    -------
+    Model
+        As :func:`ced.response.model.build_model` builds it, with ``batch`` as its batch.
+    """
+    if batch.size > MAX_CASES:
+        return build_model(batch)
+    keys = [model_key(scene) for scene in batch.scenes]
+    for kept in reversed(_MODELS):
+        model, where = _MODELS[kept]
+        if all(k in where for k in keys):
+            _MODELS.move_to_end(kept)
+            return _at_cases(model, batch, np.array([where[k] for k in keys]))
+    model = build_model(batch)
+    for field in dataclasses.fields(model):
+        if field.name != "batch":
+            _freeze(getattr(model, field.name))
+    where: dict = {}
+    for i, k in enumerate(keys):
+        where.setdefault(k, i)
+    _MODELS[next(_SERIAL)] = (model, where)
+    while len(_MODELS) > MAX_MODELS:
+        _MODELS.popitem(last=False)
+    return model
+
+
+def clear() -> None:
+    """Forget every kept model."""
+    _MODELS.clear()

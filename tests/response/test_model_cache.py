@@ -1,0 +1,94 @@
+"""Models kept between small batches (ced.response.model_cache): a kept model serves exactly
+what a fresh build would, and only where the links are the same."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ced.problem.scene import load_scene
+from ced.response import model_cache
+from ced.response.batch import make_batch
+from ced.response.model import build_model
+from ced.simulation.simulate import simulate
+
+FOUR_BAR = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35}
+
+
+def _scene(coupler=0.45, speed=100.0, steps=64, **extra):
+    return load_scene({"mechanism": {**FOUR_BAR, "coupler": coupler},
+                       "drive": {"speed": speed},
+                       "discretization": {"elements_per_link": 4, "modes_per_link": 2},
+                       "damping": {"model": "modal", "ratio": 0.01},
+                       "time": {"revolutions": 1, "steps_per_revolution": steps}, **extra})
+
+
+def _arrays(model):
+    """Every array of a model's fields but the batch, by path."""
+    out = {}
+
+    def walk(value, path):
+        if isinstance(value, np.ndarray):
+            out[path] = value
+        elif isinstance(value, dict):
+            for k, v in value.items():
+                walk(v, f"{path}.{k}")
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            for f in dataclasses.fields(value):
+                walk(getattr(value, f.name), f"{path}.{f.name}")
+    for f in dataclasses.fields(model):
+        if f.name != "batch":
+            walk(getattr(model, f.name), f.name)
+    return out
+
+
+@pytest.fixture(autouse=True)
+def empty_cache():
+    model_cache.clear()
+    yield
+    model_cache.clear()
+
+
+def test_a_subset_of_a_kept_batch_gets_the_fresh_build_of_its_cases():
+    # Three geometries kept; a batch of two of them (reversed, one twice, other speeds and
+    # steps) must get bit for bit the arrays a fresh build of that batch has.
+    kept = make_batch([_scene(c) for c in (0.45, 0.46, 0.47)])
+    model_cache.model_for(kept)
+    batch = make_batch([_scene(0.47, speed=80.0, steps=128), _scene(0.45, speed=120.0),
+                        _scene(0.47, speed=90.0)])
+    served, fresh = model_cache.model_for(batch), build_model(batch)
+    assert served.batch is batch
+    got, want = _arrays(served), _arrays(fresh)
+    assert got.keys() == want.keys() and len(want) > 20
+    for path, value in want.items():
+        np.testing.assert_array_equal(got[path], value, err_msg=path)
+    assert served.layout == fresh.layout and served.effects == fresh.effects
+
+
+def test_other_links_are_built_not_served():
+    first = model_cache.model_for(make_batch([_scene(0.45)]))
+    other = model_cache.model_for(make_batch([_scene(0.45, links={"coupler": {
+        "section": {"shape": "rectangle", "height": 0.006, "width": 0.01}}})]))
+    assert not np.array_equal(other.links["coupler"].stiffness, first.links["coupler"].stiffness)
+    moved = model_cache.model_for(make_batch([_scene(0.46)]))
+    assert not np.array_equal(moved.links["coupler"].mass, first.links["coupler"].mass)
+
+
+def test_a_kept_model_cannot_be_written_into():
+    model = model_cache.model_for(make_batch([_scene()]))
+    with pytest.raises(ValueError, match="read-only"):
+        model.links["coupler"].stiffness[0, 0, 0] = 1.0
+
+
+def test_large_batches_are_not_kept(monkeypatch):
+    monkeypatch.setattr(model_cache, "MAX_CASES", 1)
+    model_cache.model_for(make_batch([_scene(), _scene(speed=90.0)]))
+    assert not model_cache._MODELS
+
+
+def test_a_simulation_is_the_same_with_a_kept_model():
+    scenes = [_scene(0.45, speed=s, steps=128) for s in (90.0, 110.0)]
+    fresh = simulate(scenes)  # keeps its model
+    served = simulate(scenes)
+    assert model_cache._MODELS
+    # Every variable bit for bit but the wall time of the solve.
+    assert fresh.drop_vars("solve_time").identical(served.drop_vars("solve_time"))
