@@ -44,12 +44,17 @@ def modal_phases(angles: int) -> np.ndarray:
 
 def cycle_frequencies(model: Model, phases: np.ndarray, modes: int,
                       effects: set[str] | None = None) -> np.ndarray:
-    """Natural frequencies of the frozen system at phases of the input cycle, Hz.
+    """Natural frequencies of the frozen system at phases of the motion's period, Hz.
+
+    The period is the input cycle, or two for a case whose motion repeats only every two
+    turns (:attr:`ced.response.batch.Batch.motion_turns`: a change point passed once a turn,
+    its second turn on the other assembly branch): its phases are then of both turns, phase
+    φ at Ωt = 2φ, so that the frequencies span every configuration it passes through.
 
     Parameters
     ----------
     model : the batch's KED model
-    phases : (phase,) rad, phases Ωt of the input cycle
+    phases : (phase,) rad, phases of the period (Ωt for a motion that repeats every turn)
     modes : number of frequencies per phase
     effects : effects whose stiffness-type terms enter K_eff (default: the scene's); damping
         never enters
@@ -60,7 +65,9 @@ def cycle_frequencies(model: Model, phases: np.ndarray, modes: int,
     :func:`ced.fem.eigenproblem.natural_frequencies`)
     """
     effects = (model.effects if effects is None else set(effects)) - {"damping"}
-    times = np.asarray(phases, float)[None, :] / model.batch.speed[:, None]
+    batch = model.batch
+    times = (np.asarray(phases, float)[None, :] * batch.motion_turns[:, None]
+             / batch.speed[:, None])
     terms, _ = terms_at(model, times, effects, frozenset({"elastic_mass"}))
     return natural_frequencies(terms.stiffness, terms.elastic_mass, modes)
 

@@ -12,8 +12,9 @@ outputs other than the stations, or names, none of which a model depends on
 (:func:`model_key`): its model is the kept one's at those cases (every model array but the
 stations has a leading case axis).
 
-The arrays of a kept model are made read-only, so that a consumer writing into one raises
-instead of changing another batch's model.
+A kept model's arrays are shared with the batches it serves: nothing writes into a model
+(the whole test suite ran with them read-only). They are left writable because the compiled
+kernels they reach would otherwise hold a second, read-only signature of each.
 """
 from __future__ import annotations
 
@@ -58,18 +59,6 @@ def model_key(scene: dict) -> str:
         A normalized scene (:func:`ced.problem.scene.load_scene`).
     """
     return dump_scene([[scene.get(k) for k in _MODEL_KEYS], scene["outputs"]["stations"]])
-
-
-def _freeze(value) -> None:
-    """Make every array inside a model's field read-only (dicts and dataclasses walked)."""
-    if isinstance(value, np.ndarray):
-        value.flags.writeable = False
-    elif isinstance(value, dict):
-        for v in value.values():
-            _freeze(v)
-    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
-        for field in dataclasses.fields(value):
-            _freeze(getattr(value, field.name))
 
 
 def _cases(value, cases: np.ndarray, size: int):
@@ -122,9 +111,6 @@ def model_for(batch: Batch) -> Model:
             _MODELS.move_to_end(kept)
             return _at_cases(model, batch, np.array([where[k] for k in keys]))
     model = build_model(batch)
-    for field in dataclasses.fields(model):
-        if field.name != "batch":
-            _freeze(getattr(model, field.name))
     where: dict = {}
     for i, k in enumerate(keys):
         where.setdefault(k, i)

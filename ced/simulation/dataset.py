@@ -48,6 +48,9 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
         ("case", "step"), "N", "normal force of the guide on the slider (y component)", _F64),
     "input_torque": (
         ("case", "step"), "N m", "torque applied by the drive to the input link", _F64),
+    "motion_turns": (
+        ("case",), "1", "input turns after which the rigid motion repeats: 2 where it passes a "
+        "change point once a turn onto the other assembly branch, else 1", "int32"),
     "deflection": (
         ("case", "step", "link", "station"), "m",
         "transverse elastic deflection relative to the deformed chord", _F32),
@@ -111,6 +114,7 @@ PRESENCE: dict[str, str] = {
     "joint_force": "always",
     "guide_force": "slider-crank only",
     "input_torque": "always",
+    "motion_turns": "always",
     "deflection": _ELASTIC,
     "axial_displacement": _ELASTIC,
     "bending_strain": _ELASTIC,
@@ -150,7 +154,9 @@ DIMENSIONS: dict[str, tuple[str, str]] = {
     "fibre": ("outer fibre across the in-plane section depth, y/h = -0.5 and 0.5 (y along the "
               "link's transverse deflection axis: curvature v'' > 0 stretches the fibre at "
               "-0.5)", "with `stress`"),
-    "modal_angle": ("phase of the input cycle, rad, `modal.angles` evenly spaced values",
+    "modal_angle": ("phase of the input cycle, rad, `modal.angles` evenly spaced values (of "
+                    "the two-turn period, at input angle 2 × `modal_angle`, for a case whose "
+                    "motion repeats only every two turns: a change point passed once a turn)",
                     "with `natural_frequency`"),
     "mode": ("mode number 1, 2, … by ascending frequency", "with `natural_frequency`"),
 }

@@ -25,7 +25,7 @@ from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
 from ..response.batch import Batch, make_batch, structure_key
 from ..response.elastic import SERIES_SAMPLES, elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
-from ..response.model import build_model
+from ..response.model_cache import model_for
 from .dataset import VARIABLES, case_coordinates, make_dataset
 from .memory import keep_freed_memory
 from .size import cases_per_solve, check_run_memory
@@ -146,6 +146,9 @@ def _solve_period(batch: Batch, peaks_only: bool = False,
     flags = np.zeros(batch.size, STATUS_DTYPE)
     flags[singular] |= STATUS_FLAGS["near_singular"]
     out["status"] = flags
+    if not peaks_only:
+        out["motion_turns"] = np.full(batch.size, batch.period_steps
+                                      // scene["time"]["steps_per_revolution"], np.int32)
     if scene["discretization"] == "auto":
         raise ValueError("discretization: auto must be resolved before solving "
                          "(ced.auto.discretization.resolve_discretization, as simulate does)")
@@ -378,7 +381,7 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
     """
     if "natural_frequency" in data:
         return first_natural_frequency(data["natural_frequency"])
-    parts = [first_natural_frequency(cycle_frequencies(build_model(batch), modal_phases(4), 1))
+    parts = [first_natural_frequency(cycle_frequencies(model_for(batch), modal_phases(4), 1))
              for batch, *_ in solved]
     return np.concatenate(parts)[order]
 
@@ -514,7 +517,10 @@ def simulate(scenes) -> xr.Dataset:
         n = first["modal"]["angles"]
         coords["modal_angle"] = ("modal_angle", 2.0 * np.pi * np.arange(n) / n, {
             "units": "rad", "long_name": "phase of the input cycle (crank angle − initial "
-                                        "angle for a rotating input)"})
+                                        "angle for a rotating input)",
+            "comment": "of the two-turn period, at input angle 2 × modal_angle, for a case "
+                       "whose motion repeats only every two turns (a change point passed once "
+                       "a turn)"})
         coords["mode"] = ("mode", np.arange(1, first["modal"]["modes"] + 1),
                           {"units": "1", "long_name": "mode number, by ascending frequency"})
     if "station" in used:

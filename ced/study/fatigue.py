@@ -35,7 +35,7 @@ import rainflow
 import xarray as xr
 
 __all__ = ["MEAN_STRESS_CORRECTION", "STRENGTHS", "periodic_cycles", "goodman_safety_factor",
-           "fatigue_safety_factor", "link_strengths", "case_fatigue"]
+           "fatigue_safety_factor", "link_strengths", "whole_periods", "case_fatigue"]
 
 #: The mean-stress correction applied (the ``mean_stress_correction`` attribute of the result).
 MEAN_STRESS_CORRECTION = "goodman"
@@ -169,6 +169,33 @@ def link_strengths(ds: xr.Dataset) -> xr.Dataset | None:
         for name in STRENGTHS}, coords={"case": ds.case, "link": ds.link})
 
 
+def whole_periods(ds: xr.Dataset) -> np.ndarray:
+    """(case,) bool: the stored history spans a whole number of the rigid motion's periods
+    (``motion_turns`` input turns of 2π/Ω s each, Ω the ``speed``), to 1e-6 of a period; True
+    where the dataset cannot tell (no ``motion_turns``, ``time`` or ``speed``: a dataset
+    written before ``motion_turns`` existed, whose motions all repeated every turn).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A chunk dataset.
+    """
+    if not all(name in ds for name in ("motion_turns", "time", "speed")):
+        return np.ones(ds.sizes["case"], bool)
+    time = ds.time.transpose("case", "step").values
+    period = 2.0 * np.pi * ds.motion_turns.values / ds.speed.values
+    periods = (time[:, -1] - time[:, 0]) / period
+    return (periods > 1.0 - 1e-6) & (np.abs(periods - np.round(periods)) < 1e-6)
+
+
+def _bound(peak: float, strength: float) -> float:
+    """min(S_e, S_u)/σ_peak (``strength`` the smaller), inf without stress, NaN where the
+    peak is unknown."""
+    if not np.isfinite(peak):
+        return np.nan
+    return np.inf if peak == 0.0 else strength / peak
+
+
 def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
     """Fatigue safety factor of every case and link of a chunk dataset.
 
@@ -176,6 +203,13 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
     stress over time and both fibres) is taken as one period of the steady state (the
     stored cycle: ``time.revolutions`` revolutions from ``time.start``), both outer fibres are
     rainflow counted and the smaller Goodman factor (:func:`fatigue_safety_factor`) is kept.
+
+    Where the stored history is not a whole number of the motion's periods (a motion that
+    repeats only every two turns, ``motion_turns`` 2, stored over one: its other turn, on the
+    other assembly branch, is not in it), no cycle count is possible; the factor is then the
+    lower bound min(S_e, S_u)/σ_peak with σ_peak the link's peak stress over the whole period
+    (``peak_stress``): every cycle between −σ_peak and σ_peak has a Goodman factor at least
+    that (the worst, fully reversed ±σ_peak, has S_e/σ_peak).
 
     Parameters
     ----------
@@ -201,11 +235,16 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
     peak = np.abs(stress).max(axis=(3, 4))  # (case, link, station)
     critical = np.nan_to_num(peak, nan=-1.0).argmax(axis=2)
     factor = np.full((ncase, nlink), np.nan)
+    whole = whole_periods(ds)
     for c in range(ncase):
         for k in range(nlink):
             history = stress[c, k, critical[c, k]]
             if not (np.isfinite(endurance[c, k]) and np.isfinite(ultimate[c, k])
                     and np.isfinite(history).all()):
+                continue
+            if not whole[c]:
+                peak = ds.peak_stress.values[c, k] if "peak_stress" in ds else np.nan
+                factor[c, k] = _bound(float(peak), min(endurance[c, k], ultimate[c, k]))
                 continue
             factor[c, k] = min(fatigue_safety_factor(history[:, f], endurance[c, k],
                                                      ultimate[c, k]) for f in range(2))
@@ -217,7 +256,10 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
             "the worst rainflow cycle at the link's critical station",
             "mean_stress_correction": MEAN_STRESS_CORRECTION,
             "comment": "n = 1/(amplitude/endurance_limit + max(mean, 0)/ultimate_strength), "
-                       "minimum over the rainflow cycles of one period at both outer fibres; "
+                       "minimum over the rainflow cycles of one period at both outer fibres "
+                       "(min(endurance_limit, ultimate_strength)/peak_stress, a lower bound, "
+                       "where the stored history is not a whole number of the motion's "
+                       "periods); "
                        "NaN where the material has no endurance limit or tensile strength; "
                        "inf for a link without stress"}),
         "fatigue_critical_station": (("case", "link"), station, {

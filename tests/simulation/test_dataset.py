@@ -36,8 +36,8 @@ def test_every_variable_has_units_and_long_name(name, request):
 def test_rigid_dataset_has_only_rigid_variables(rigid):
     assert set(rigid.data_vars) == {
         "time", "crank_angle", "joint_position", "link_angle", "link_angular_velocity",
-        "link_angular_acceleration", "joint_force", "input_torque", "solve_time", "status",
-        "message"}
+        "link_angular_acceleration", "joint_force", "input_torque", "motion_turns",
+        "solve_time", "status", "message"}
     assert rigid.sizes["case"] == 1
     assert list(rigid.joint.values) == ["A", "B", "C", "D"]
     assert list(rigid.link.values) == ["crank", "coupler", "rocker"]

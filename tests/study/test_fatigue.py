@@ -69,3 +69,45 @@ def test_case_fatigue_reads_the_critical_station_and_both_fibres():
     assert n.sel(case=0, link="crank") == np.inf        # rigid: no stress
     assert np.isnan(n.sel(case=1)).all()                # no endurance limit: no result
     assert n.attrs["mean_stress_correction"] == "goodman"
+
+
+def _timed(ds: xr.Dataset, turns, revolutions, speed=10.0) -> xr.Dataset:
+    """``ds`` with the motion's turns, the speed and a time axis over ``revolutions``."""
+    ncase, nstep = ds.sizes["case"], ds.sizes["step"]
+    time = np.outer(revolutions, np.linspace(0.0, 2.0 * np.pi / speed, nstep))
+    return ds.assign(motion_turns=("case", np.asarray(turns, np.int32)),
+                     time=(("case", "step"), time)).assign_coords(speed=("case", [speed] * ncase))
+
+
+def test_whole_periods_of_one_and_two_turn_motions():
+    stress = np.zeros((4, 9, 1, 2, 2))
+    ds = _timed(chunk(stress, [STEEL] * 4), [1, 2, 2, 1], [1.0, 1.0, 2.0, 1.5])
+    from ced.study.fatigue import whole_periods
+    assert whole_periods(ds).tolist() == [True, False, True, False]
+    assert whole_periods(chunk(stress, [STEEL] * 4)).all()  # no motion_turns: as before
+
+
+def test_a_history_short_of_its_period_gets_the_bound_of_its_peak():
+    # One turn of a two-turn motion holds the hand case (peak 150 MPa); the other turn peaks
+    # at 200 MPa (peak_stress): no cycle count, the bound S_e/200 MPa = 0.9.
+    stress = np.zeros((2, len(HISTORY), 1, 2, 2))
+    stress[:, :, 0, 1, 0] = HISTORY * 1e6
+    ds = _timed(chunk(stress, [STEEL] * 2), [2, 1], [1.0, 1.0])
+    ds["peak_stress"] = (("case", "link"), np.array([[200e6], [150e6]]))
+    n = case_fatigue(ds).fatigue_safety_factor.sel(link="crank").values
+    assert n[0] == pytest.approx(180.0 / 200.0)
+    assert n[1] == pytest.approx(goodman_safety_factor(120e6, 30e6, **STEEL))  # counted
+
+
+@pytest.mark.parametrize("revolutions, whole", [(1, False), (2, True)])
+def test_a_change_point_stored_over_one_turn_is_not_a_period(revolutions, whole):
+    from ced.problem.scene import load_scene
+    from ced.simulation.simulate import simulate
+    from ced.study.fatigue import whole_periods
+    ds = simulate([load_scene({
+        "mechanism": {"type": "four_bar", "ground": 0.4, "crank": 0.1, "coupler": 0.35,
+                      "rocker": 0.15},
+        "drive": {"speed": 20.0}, "discretization": {"elements_per_link": 2},
+        "time": {"revolutions": revolutions, "steps_per_revolution": 64}})])
+    assert ds.motion_turns.values.tolist() == [2]
+    assert whole_periods(ds).tolist() == [whole]
