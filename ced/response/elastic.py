@@ -230,7 +230,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
         # state of the cases the spectral solver leaves (solved for those alone, below).
         one_period = monodromy(scheme, marcher, h, period.period, ny, ncase)
         if full:
-            mu, resonant = floquet(one_period, ny)
+            mu, resonant = floquet(one_period, ny, turns)
             largest = _per_turn(np.abs(mu).max(axis=-1), turns)
             result["floquet_multiplier_max"] = largest
             status[largest > 1.0 + INSTABILITY_MARGIN] |= STATUS_FLAGS["parametrically_unstable"]

@@ -19,7 +19,9 @@ __all__ = ["Monodromy", "monodromy", "periodic_state", "floquet", "shoot", "reso
            "RESONANCE_GAP", "RESONANCE_SHARE", "INSTABILITY_MARGIN", "COND_LIMIT"]
 
 #: A Floquet multiplier μ with |1 − μ| below this is near resonance: a crank harmonic k within
-#: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ...
+#: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ... (per input turn: for a
+#: period of several turns the gap grows with them, :func:`floquet`'s ``turns``, so that it
+#: stands for the same band of frequency: |1 − μ| ≈ |ωT − 2πk| grows with the period T) ...
 RESONANCE_GAP = 0.05
 #: ... and the case is flagged resonant when such near-resonant modes carry more than this
 #: share of the periodic displacement (a barely excited high mode near a harmonic is not).
@@ -146,7 +148,7 @@ def _regular(A: np.ndarray) -> bool:
     return bool(np.linalg.cond(A) < COND_LIMIT)
 
 
-def floquet(period: Monodromy, ny: int):
+def floquet(period: Monodromy, ny: int, turns: int = 1):
     """Floquet multipliers and the resonance flag.
 
     Only the eigenvalues of Φ are computed (LAPACK's problem costs half without the
@@ -157,6 +159,9 @@ def floquet(period: Monodromy, ny: int):
     ----------
     period, ny
         As for :func:`periodic_state`.
+    turns : int, optional
+        Input turns of the period (two for a motion that passes a change point once a turn):
+        the resonance gap is :data:`RESONANCE_GAP` per turn.
 
     Returns
     -------
@@ -166,7 +171,7 @@ def floquet(period: Monodromy, ny: int):
         :func:`resonant`.
     """
     multipliers = np.linalg.eigvals(period.Phi)
-    return multipliers, resonant(multipliers, period.Phi, period.p, ny)
+    return multipliers, resonant(multipliers, period.Phi, period.p, ny, RESONANCE_GAP * turns)
 
 
 def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int, ny: int,
@@ -198,11 +203,12 @@ def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period:
     return (state, *floquet(period, ny))
 
 
-def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> np.ndarray:
+def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
+             gap: float = RESONANCE_GAP) -> np.ndarray:
     """(case,) bool: near-resonant Floquet modes dominate the periodic displacement.
 
     With Φ = V diag(μ) V⁻¹ the periodic state is Σ_i V_i c_i/(1 − μ_i), c = V⁻¹p; the share of
-    the modes with |1 − μ_i| < RESONANCE_GAP in its displacement part is compared with
+    the modes with |1 − μ_i| < ``gap`` in its displacement part is compared with
     RESONANCE_SHARE. Only the near modes' terms are needed: each is v_i (w_iᴴp)/(w_iᴴv_i)
     /(1 − μ_i) with v_i, w_i its right and left eigenvectors, found by inverse iteration at the
     known μ_i (one complex LU per conjugate pair: 0.65 against 2.6 ms per case for all the
@@ -222,6 +228,9 @@ def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> np.ndar
         Forced part of the state after one period, shape (case, 3 ny).
     ny : int
         Number of elastic DOFs (the displacement part is the first ny rows).
+    gap : float, optional
+        |1 − μ| below which a multiplier is near resonance (:data:`RESONANCE_GAP` per input
+        turn of the period).
 
     Returns
     -------
@@ -229,10 +238,10 @@ def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> np.ndar
         Shape (case,), bool.
     """
     flagged = np.zeros(mu.shape[0], bool)
-    for c in np.flatnonzero((np.abs(1.0 - mu) < RESONANCE_GAP).any(axis=-1)):
-        share = _near_share(mu[c], Phi[c], p[c], ny)
+    for c in np.flatnonzero((np.abs(1.0 - mu) < gap).any(axis=-1)):
+        share = _near_share(mu[c], Phi[c], p[c], ny, gap)
         if share is None:
-            share = _near_share_by_eig(Phi[c], p[c], ny)
+            share = _near_share_by_eig(Phi[c], p[c], ny, gap)
         flagged[c] = share > RESONANCE_SHARE
     return flagged
 
@@ -246,10 +255,11 @@ _SETTLED = 1e-11
 _START: dict[int, np.ndarray] = {}
 
 
-def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int) -> float | None:
-    """The near-1 modes' share of the periodic displacement of one case by inverse iteration
-    (:func:`resonant`), or None where it cannot be trusted."""
-    near = np.flatnonzero(np.abs(1.0 - mu) < RESONANCE_GAP)
+def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
+                gap: float) -> float | None:
+    """The near-1 modes' share (within ``gap``) of the periodic displacement of one case by
+    inverse iteration (:func:`resonant`), or None where it cannot be trusted."""
+    near = np.flatnonzero(np.abs(1.0 - mu) < gap)
     if np.any(mu[near] == 1.0):
         return None  # exact resonance
     gap = np.abs(mu[near, None] - mu[None, :])
@@ -321,11 +331,12 @@ def _inverse_iteration(lu, start: np.ndarray, trans: int) -> np.ndarray | None:
     return None
 
 
-def _near_share_by_eig(Phi: np.ndarray, p: np.ndarray, ny: int) -> float:
-    """The near-1 modes' share of the periodic displacement of one case from all the
-    eigenvectors of Φ (:func:`resonant`); a defective Φ near 1 counts as resonant (inf)."""
+def _near_share_by_eig(Phi: np.ndarray, p: np.ndarray, ny: int, gap: float) -> float:
+    """The near-1 modes' share (within ``gap``) of the periodic displacement of one case from
+    all the eigenvectors of Φ (:func:`resonant`); a defective Φ near 1 counts as resonant
+    (inf)."""
     mu, V = np.linalg.eig(Phi)
-    near = np.abs(1.0 - mu) < RESONANCE_GAP
+    near = np.abs(1.0 - mu) < gap
     try:
         coeff = np.linalg.solve(V, p.astype(complex))
     except np.linalg.LinAlgError:

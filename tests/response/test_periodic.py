@@ -9,8 +9,8 @@ from ced.response.integrators import newmark as average_acceleration
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
 from ced.response.periodic import (COND_LIMIT, INSTABILITY_MARGIN, RESONANCE_GAP,
-                                   RESONANCE_SHARE, _near_share, _near_share_by_eig, _regular,
-                                   floquet, monodromy, periodic_state, resonant, shoot)
+                                   RESONANCE_SHARE, Monodromy, _near_share, _near_share_by_eig,
+                                   _regular, floquet, monodromy, periodic_state, resonant, shoot)
 
 
 def one_dof_period(stiffness, force, h, steps):
@@ -132,10 +132,11 @@ def test_near_share_by_inverse_iteration_is_the_eigenvector_share(seed, detuning
     if real_one:
         near.append(complex(1.0 - 0.5 * detuning, 0.0))
     Phi, p, exact = _real_monodromy(rng, near, 8)
-    share = _near_share(np.linalg.eigvals(Phi), Phi, p, 4)
+    share = _near_share(np.linalg.eigvals(Phi), Phi, p, 4, RESONANCE_GAP)
     assert share is not None
     assert share == pytest.approx(exact, rel=1e-9, abs=1e-12)
-    assert _near_share_by_eig(Phi, p, 4) == pytest.approx(exact, rel=1e-9, abs=1e-12)
+    assert (_near_share_by_eig(Phi, p, 4, RESONANCE_GAP)
+            == pytest.approx(exact, rel=1e-9, abs=1e-12))
 
 
 def test_clustered_or_exact_near_multipliers_fall_back_to_the_eigenvectors():
@@ -145,14 +146,14 @@ def test_clustered_or_exact_near_multipliers_fall_back_to_the_eigenvectors():
     rng = np.random.default_rng(1)
     m = 0.99 + 0.01j
     Phi, p, _ = _real_monodromy(rng, [m, m + 1e-9], 4)
-    assert _near_share(np.linalg.eigvals(Phi), Phi, p, 4) is None
+    assert _near_share(np.linalg.eigvals(Phi), Phi, p, 4, RESONANCE_GAP) is None
     one, q, _ = _real_monodromy(rng, [complex(0.999, 0.0)], 4)
     mu = np.linalg.eigvals(one)
     mu[np.argmin(np.abs(mu - 1.0))] = 1.0
-    assert _near_share(mu, one, q, 4) is None
+    assert _near_share(mu, one, q, 4, RESONANCE_GAP) is None
     # ... and resonant() still decides them: the clustered pair carries the state or not.
     flagged = resonant(np.linalg.eigvals(Phi)[None], Phi[None], p[None], 4)
-    assert flagged[0] == (_near_share_by_eig(Phi, p, 4) > RESONANCE_SHARE)
+    assert flagged[0] == (_near_share_by_eig(Phi, p, 4, RESONANCE_GAP) > RESONANCE_SHARE)
 
 
 @settings(max_examples=60, deadline=None)
@@ -167,3 +168,16 @@ def test_the_direct_solve_is_taken_exactly_where_the_condition_number_allows_it(
     s = np.logspace(0.0, -log_cond, n)
     A = (U * s) @ V.T
     assert _regular(A) == (np.linalg.cond(A) < COND_LIMIT)
+
+
+def test_the_resonance_gap_is_per_input_turn():
+    # A pair at |1 − μ| = 0.07 carrying most of the state: past the gap of a one-turn period,
+    # inside that of a two-turn one (the same band of frequency: |1 − μ| ≈ |ωT − 2πk|).
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        Phi, p, share = _real_monodromy(rng, [1.0 + 0.07j], 4)
+        if share > RESONANCE_SHARE:
+            break
+    period = Monodromy(p[None], Phi[None], np.ones((1, len(p))))
+    assert not floquet(period, 4)[1][0]
+    assert floquet(period, 4, turns=2)[1][0]
