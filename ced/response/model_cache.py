@@ -7,9 +7,9 @@ of cases already seen, at other steps per revolution: the pilot ladders of the b
 built 50 models in 31 calls, a third of the pilots' time, each of the same links as the
 first (a ladder changes the steps, never the links; its climbers are a subset of the batch
 before). :func:`model_for` keeps the last few models of small batches and serves a batch
-whose every case has the links of some case of a kept model, whatever their speed, time grid,
-outputs other than the stations, or names, none of which a model depends on
-(:func:`model_key`): its model is the kept one's at those cases (every model array but the
+whose every case has the links and start configuration of some case of a kept model,
+whatever their speed, time grid, outputs other than the stations, or names, none of which a
+model depends on (:func:`model_key`): its model is the kept one's at those cases (every model array but the
 stations has a leading case axis).
 
 A kept model's arrays are shared with the batches it serves: nothing writes into a model
@@ -36,8 +36,11 @@ MAX_CASES = 256
 #: Models kept (the least recently used is dropped first).
 MAX_MODELS = 8
 #: Scene keys a model depends on (:func:`ced.response.model.build_model` reads the
-#: mechanism, links, point masses, discretization, effects, damping and output stations;
-#: gravity is kept too: a key that says too much only costs a rebuild).
+#: mechanism, links, point masses, discretization, effects, damping and output stations, and
+#: modal damping the configuration at t = 0, from the drive's initial angle and amplitude;
+#: gravity is kept too: a key that says too much only costs a rebuild). Not the speed: the
+#: configuration, not its rates, enters a model (checked bit for bit across speeds in
+#: ``tests/response/test_model_cache.py``).
 _MODEL_KEYS = ("mechanism", "links", "point_masses", "discretization", "effects", "damping",
                "gravity")
 
@@ -58,7 +61,9 @@ def model_key(scene: dict) -> str:
     scene : dict
         A normalized scene (:func:`ced.problem.scene.load_scene`).
     """
-    return dump_scene([[scene.get(k) for k in _MODEL_KEYS], scene["outputs"]["stations"]])
+    drive = {k: v for k, v in scene["drive"].items() if k != "speed"}
+    return dump_scene([[scene.get(k) for k in _MODEL_KEYS], drive,
+                       scene["outputs"]["stations"]])
 
 
 def _cases(value, cases: np.ndarray, size: int):

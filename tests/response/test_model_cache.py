@@ -18,6 +18,8 @@ def _scene(coupler=0.45, speed=100.0, steps=64, **extra):
     return load_scene({"mechanism": {**FOUR_BAR, "coupler": coupler},
                        "drive": {"speed": speed},
                        "discretization": {"elements_per_link": 4, "modes_per_link": 2},
+                       "effects": ["inertia", "elastic_inertia", "coriolis", "centrifugal",
+                                   "axial_stiffening", "damping"],
                        "damping": {"model": "modal", "ratio": 0.01},
                        "time": {"revolutions": 1, "steps_per_revolution": steps}, **extra})
 
@@ -62,6 +64,17 @@ def test_a_subset_of_a_kept_batch_gets_the_fresh_build_of_its_cases():
     for path, value in want.items():
         np.testing.assert_array_equal(got[path], value, err_msg=path)
     assert served.layout == fresh.layout and served.effects == fresh.effects
+
+
+def test_another_start_configuration_is_built_not_served():
+    # Modal damping is formed at t = 0: another initial angle, another damping matrix.
+    first = model_cache.model_for(make_batch([_scene()]))
+    turned = _scene()
+    turned = load_scene({**turned, "drive": {**turned["drive"], "initial_angle": 1.0}})
+    other = model_cache.model_for(make_batch([turned]))
+    assert not np.array_equal(other.modal_damping, first.modal_damping)
+    np.testing.assert_array_equal(other.modal_damping,
+                                  build_model(make_batch([turned])).modal_damping)
 
 
 def test_other_links_are_built_not_served():
