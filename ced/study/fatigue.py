@@ -171,9 +171,10 @@ def link_strengths(ds: xr.Dataset) -> xr.Dataset | None:
 
 def whole_periods(ds: xr.Dataset) -> np.ndarray:
     """(case,) bool: the stored history spans a whole number of the rigid motion's periods
-    (``motion_turns`` input turns of 2π/Ω s each, Ω the ``speed``), to 1e-6 of a period; True
-    where the dataset cannot tell (no ``motion_turns``, ``time`` or ``speed``: a dataset
-    written before ``motion_turns`` existed, whose motions all repeated every turn).
+    (``motion_turns`` input turns of 2π/Ω s each, Ω the ``speed``), short of it by less than
+    one stored interval (``outputs.every`` not dividing the steps); True where the dataset
+    cannot tell (no ``motion_turns``, ``time`` or ``speed``: a dataset written before
+    ``motion_turns`` existed, whose motions all repeated every turn).
 
     Parameters
     ----------
@@ -184,8 +185,11 @@ def whole_periods(ds: xr.Dataset) -> np.ndarray:
         return np.ones(ds.sizes["case"], bool)
     time = ds.time.transpose("case", "step").values
     period = 2.0 * np.pi * ds.motion_turns.values / ds.speed.values
-    periods = (time[:, -1] - time[:, 0]) / period
-    return (periods > 1.0 - 1e-6) & (np.abs(periods - np.round(periods)) < 1e-6)
+    span = time[:, -1] - time[:, 0]
+    interval = time[:, 1] - time[:, 0] if time.shape[1] > 1 else np.zeros(len(span))
+    whole = np.round(span / period) * period
+    slack = 1e-9 * period  # round-off of the stored times
+    return (whole > 0.0) & (span <= whole + slack) & (whole - span < interval + slack)
 
 
 def _bound(peak: float, strength: float) -> float:
@@ -243,8 +247,8 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
                     and np.isfinite(history).all()):
                 continue
             if not whole[c]:
-                peak = ds.peak_stress.values[c, k] if "peak_stress" in ds else np.nan
-                factor[c, k] = _bound(float(peak), min(endurance[c, k], ultimate[c, k]))
+                link_peak = ds.peak_stress.values[c, k] if "peak_stress" in ds else np.nan
+                factor[c, k] = _bound(float(link_peak), min(endurance[c, k], ultimate[c, k]))
                 continue
             factor[c, k] = min(fatigue_safety_factor(history[:, f], endurance[c, k],
                                                      ultimate[c, k]) for f in range(2))

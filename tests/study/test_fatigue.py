@@ -80,11 +80,13 @@ def _timed(ds: xr.Dataset, turns, revolutions, speed=10.0) -> xr.Dataset:
 
 
 def test_whole_periods_of_one_and_two_turn_motions():
-    stress = np.zeros((4, 9, 1, 2, 2))
-    ds = _timed(chunk(stress, [STEEL] * 4), [1, 2, 2, 1], [1.0, 1.0, 2.0, 1.5])
+    stress = np.zeros((5, 9, 1, 2, 2))
+    # The last: one turn stored short of its end by less than a stored interval (outputs.every
+    # not dividing the steps): a whole period still.
+    ds = _timed(chunk(stress, [STEEL] * 5), [1, 2, 2, 1, 1], [1.0, 1.0, 2.0, 1.5, 24 / 25])
     from ced.study.fatigue import whole_periods
-    assert whole_periods(ds).tolist() == [True, False, True, False]
-    assert whole_periods(chunk(stress, [STEEL] * 4)).all()  # no motion_turns: as before
+    assert whole_periods(ds).tolist() == [True, False, True, False, True]
+    assert whole_periods(chunk(stress, [STEEL] * 5)).all()  # no motion_turns: as before
 
 
 def test_a_history_short_of_its_period_gets_the_bound_of_its_peak():
