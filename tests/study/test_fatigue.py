@@ -5,8 +5,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from ced.problem.scene import load_scene
+from ced.simulation.simulate import simulate
 from ced.study.fatigue import (case_fatigue, fatigue_safety_factor, goodman_safety_factor,
-                               periodic_cycles)
+                               periodic_cycles, whole_periods)
 
 #: One period of a stress history, MPa. By hand (ASTM E1049 four-point rainflow) from its
 #: largest value: 150 -50 50 0 100 -90 (150) closes the cycles 50-0 (range 50, mean 25),
@@ -84,7 +86,6 @@ def test_whole_periods_of_one_and_two_turn_motions():
     # The last: one turn stored short of its end by less than a stored interval (outputs.every
     # not dividing the steps): a whole period still.
     ds = _timed(chunk(stress, [STEEL] * 5), [1, 2, 2, 1, 1], [1.0, 1.0, 2.0, 1.5, 24 / 25])
-    from ced.study.fatigue import whole_periods
     assert whole_periods(ds).tolist() == [True, False, True, False, True]
     assert whole_periods(chunk(stress, [STEEL] * 5)).all()  # no motion_turns: as before
 
@@ -103,9 +104,6 @@ def test_a_history_short_of_its_period_gets_the_bound_of_its_peak():
 
 @pytest.mark.parametrize("revolutions, whole", [(1, False), (2, True)])
 def test_a_change_point_stored_over_one_turn_is_not_a_period(revolutions, whole):
-    from ced.problem.scene import load_scene
-    from ced.simulation.simulate import simulate
-    from ced.study.fatigue import whole_periods
     ds = simulate([load_scene({
         "mechanism": {"type": "four_bar", "ground": 0.4, "crank": 0.1, "coupler": 0.35,
                       "rocker": 0.15},
