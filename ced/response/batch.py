@@ -199,9 +199,10 @@ class Batch:
         undecided = np.ones(self.size, bool)
         for count in MOTION_TURNS:
             later = count * per_turn
-            # Solved apart, not kept: the kept motion's length sets the neighbours its last
-            # step's interpolated velocities are taken from (a singular step), and a one-turn
-            # case's results stay those of the motion over one turn.
+            # Solved apart, kept only where that changes no bit (_keep_one_turn): the kept
+            # motion's length sets the neighbours its last step's interpolated velocities are
+            # taken from (a singular step), and a one-turn case's results stay those of the
+            # motion over one turn.
             grid = self._solve_motion(self.step_size[:, None] * np.arange(later + 2)[None, :])
             back = _same_configuration(grid, self.link_lengths, later)
             turns[undecided & back] = count
@@ -215,10 +216,10 @@ class Batch:
                          f"turns")
 
     def _keep_one_turn(self, grid: kinematics.RigidMotion, per_turn: int) -> None:
-        """Keep the steps 0 … ``per_turn`` of the repeat test's ``grid`` (steps 0 … per_turn + 1)
-        as the grid motion (:meth:`_grid_motion`) where they are, bit for bit, the motion
-        solved over one turn: a linkage of dyads, no step singular anywhere in ``grid`` and
-        every RRR dyad on its starting solution at every step.
+        """Keep the repeat test's ``grid`` (steps 0 … per_turn + 1) as the grid motion
+        (:meth:`_grid_motion`) where its steps are, bit for bit, those of the motion solved
+        over one turn: a linkage of dyads, no step singular anywhere in ``grid`` and every RRR
+        dyad on its starting solution at every step.
 
         Each step of a dyad's placement is then its own: only the interpolated rates of a
         singular step read later steps, and only a change of solution depends on whether the
@@ -243,7 +244,7 @@ class Batch:
                               for d in descriptions])  # as dyads._rrr starts
             if np.any(grid.branch[dyad["links"][0]] != start[:, None]):
                 return
-        self._on_grid = (per_turn, kinematics.at_steps(grid, np.arange(per_turn + 1)))
+        self._on_grid = (per_turn + 1, grid)  # k ≥ per_turn: _grid_motion's contract
 
     @property
     def period_steps(self) -> int:
