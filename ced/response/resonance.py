@@ -98,7 +98,8 @@ def cycle_modes(model: Model, modes: int = MODES, samples: int = SAMPLES,
             terms, _ = terms_at(model, times[:, start:start + block], effects,
                                 frozenset({"elastic_mass"}))
             mass, stiffness, force = terms.elastic_mass, terms.stiffness, terms.force
-        f, shapes = natural_frequencies(stiffness, mass, modes, shapes=True)
+        f, shapes = natural_frequencies(stiffness, mass, modes, shapes=True,
+                                        blocks=model.layout.link_blocks)
         for j in range(shapes.shape[1]):  # eigenvectors come with arbitrary signs: follow
             if previous is not None:      # each mode from sample to sample
                 overlap = np.einsum("cni,cnm,cmi->ci", shapes[:, j], mass[:, j], previous)
