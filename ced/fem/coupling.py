@@ -111,6 +111,21 @@ class Layout:
         return out
 
     @functools.cached_property
+    def link_blocks(self) -> list[tuple[int, int]]:
+        """(start, stop) of each link's interior DOFs in y, for the links that have any.
+
+        A link's terms reach only its own interior DOFs and the joint coordinates
+        (:func:`ced.fem.effect_terms.system_terms`), so M and K are block-arrow on these
+        ranges: :func:`ced.fem.eigenproblem.natural_frequencies` reduces them block by block.
+        """
+        out = []
+        for name in self.topology.links:
+            columns = self.row_split(name)[1]
+            if columns:
+                out.append((columns[0], columns[-1] + 1))
+        return out
+
+    @functools.cached_property
     def ny(self) -> int:
         return len(self.free_coordinates) + len(self.interior_dofs)
 

@@ -168,6 +168,23 @@ def test_motion_turns_are_the_turns_after_which_the_motion_repeats(mechanism, tu
     assert np.abs(back).max() < 1e-6
 
 
+def test_the_repeat_test_s_motion_is_kept_only_where_it_is_the_one_turn_motion():
+    # A six-bar whose dyads stay on their branches keeps the repeat test's motion (one turn and
+    # a step) as its grid motion: over the turn, the same bits as the motion solved over it. A linkage
+    # whose dyad passes a change point (two turns) solves its grid motion anew.
+    batch = _batch(WATT_II)
+    assert batch.motion_turns.tolist() == [1, 1]
+    kept = batch._on_grid
+    assert kept is not None and kept[0] == 65
+    alone = _batch(WATT_II)._solve_motion(batch.step_size[:, None] * np.arange(65)[None, :])
+    for name in ("link_angle", "link_angular_velocity", "link_angular_acceleration",
+                 "joint_position", "joint_velocity", "joint_acceleration", "time", "singular"):
+        assert np.array_equal(getattr(kept[1], name)[:, :65], getattr(alone, name)), name
+    changing = _batch(CHANGE_POINT_DYADS)
+    assert changing.motion_turns.tolist() == [2, 2]
+    assert changing._on_grid is None
+
+
 def test_a_batch_of_one_and_two_turn_cases_has_no_single_period():
     batch = make_batch([load_scene({"mechanism": m, "drive": {"speed": 20.0},
                                     "time": {"revolutions": 1, "steps_per_revolution": 64}})

@@ -91,3 +91,28 @@ def test_cycle_modes_from_the_period_terms_equal_a_fresh_evaluation(steps):
     reused, reused_share = cycle_modes(model, period=period)
     np.testing.assert_allclose(reused, fresh, rtol=1e-9)
     np.testing.assert_allclose(reused_share, fresh_share, atol=1e-9)
+
+
+def test_cycle_modes_by_link_blocks_equal_the_dense_reduction(monkeypatch):
+    # A Watt II with three flexible binary links: the frozen eigenproblem reduced link block
+    # by link block (ced.fem.eigenproblem) gives the dense reduction's modes and load shares.
+    from ced.response import resonance
+
+    watt = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+            "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+            "pivot2_x": 0.2, "pivot2_y": -0.3}
+    batch = make_batch([load_scene({"mechanism": watt, "drive": {"speed": s},
+                                    "links": {"crank": {"flexible": False}},
+                                    "discretization": {"formulation": "euler_bernoulli",
+                                                       "elements_per_link": 4},
+                                    "time": {"steps_per_revolution": 128}})
+                        for s in (20.0, 70.0)])
+    model = build_model(batch)
+    assert model.layout.link_blocks == [(3, 14), (14, 25), (25, 36)]
+    blocked, blocked_share = cycle_modes(model)
+    dense = resonance.natural_frequencies
+    monkeypatch.setattr(resonance, "natural_frequencies",
+                        lambda K, M, modes, shapes, blocks: dense(K, M, modes, shapes))
+    full, full_share = cycle_modes(model)
+    np.testing.assert_allclose(blocked, full, rtol=1e-9)
+    np.testing.assert_allclose(blocked_share, full_share, atol=1e-9)
