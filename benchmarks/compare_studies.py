@@ -49,9 +49,10 @@ def differences(first: Path, second: Path) -> list[str]:
             x, y = a[name].values, b[name].values
             if x.dtype != y.dtype or x.shape != y.shape:
                 out.append(f"{name}: {x.dtype}{x.shape} vs {y.dtype}{y.shape}")
-            elif x.dtype.kind == "O":
-                if not all(map(lambda p: p[0] == p[1], zip(x.ravel(), y.ravel()))):
-                    out.append(f"{name}: string values differ")
+            elif x.dtype.kind in "OSU":
+                count = sum(p != q for p, q in zip(x.ravel(), y.ravel()))
+                if count:
+                    out.append(f"{name}: {count} of {x.size} string values differ")
             elif x.tobytes() != y.tobytes():
                 diff = np.abs(x.astype(float) - y.astype(float))
                 out.append(f"{name}: values differ (max |Δ| {np.nanmax(diff):.3g})")

@@ -12,6 +12,9 @@ whatever their speed, time grid, outputs other than the stations, or names, none
 model depends on (:func:`model_key`): its model is the kept one's at those cases (every model array but the
 stations has a leading case axis).
 
+:func:`ced.simulation.simulate.simulate` starts each call with none kept (:func:`clear`), so
+that a call's time and results do not depend on what the process solved before.
+
 A kept model's arrays are shared with the batches it serves: nothing writes into a model
 (the whole test suite ran with them read-only). They are left writable because the compiled
 kernels they reach would otherwise hold a second, read-only signature of each.

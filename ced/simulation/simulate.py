@@ -25,6 +25,7 @@ from ..problem.status import STATUS_DTYPE, STATUS_FLAGS
 from ..response.batch import Batch, make_batch, structure_key
 from ..response.elastic import SERIES_SAMPLES, elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
+from ..response import model_cache
 from ..response.model_cache import model_for
 from .dataset import VARIABLES, case_coordinates, make_dataset
 from .memory import keep_freed_memory
@@ -444,6 +445,9 @@ def simulate(scenes) -> xr.Dataset:
     if not normalized:
         raise ValueError("simulate: no scenes given")
     check_run_memory(normalized)  # before any work
+    # Models are kept within a call (its pilots, parts and companions share them), not from
+    # one call to the next: a call's time and bits do not depend on what came before it.
+    model_cache.clear()
     auto_reports = None
     if any(s["effects"] == "auto" for s in normalized):
         resolved = [resolve_auto(s) for s in normalized]

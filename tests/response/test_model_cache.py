@@ -92,10 +92,25 @@ def test_large_batches_are_not_kept(monkeypatch):
     assert not model_cache._MODELS
 
 
-def test_a_simulation_is_the_same_with_a_kept_model():
+def test_a_simulation_is_the_same_with_kept_models(monkeypatch):
+    # Within a call the error estimate's first frequencies reuse the solve's model; every
+    # variable is the same bit for bit as with every model built afresh, with fewer builds.
+    builds = []
+    build = model_cache.build_model
+    monkeypatch.setattr(model_cache, "build_model", lambda b: builds.append(b) or build(b))
     scenes = [_scene(0.45, speed=s, steps=128) for s in (90.0, 110.0)]
-    fresh = simulate(scenes)  # keeps its model
-    served = simulate(scenes)
-    assert model_cache._MODELS
-    # Every variable bit for bit but the wall time of the solve.
-    assert fresh.drop_vars("solve_time").identical(served.drop_vars("solve_time"))
+    kept = simulate(scenes)
+    with_cache = len(builds)
+    monkeypatch.setattr(model_cache, "MAX_CASES", 0)
+    fresh = simulate(scenes)
+    assert with_cache < len(builds) - with_cache
+    for name in fresh.variables:
+        if name != "solve_time":
+            np.testing.assert_array_equal(kept[name].values, fresh[name].values, err_msg=name)
+
+
+def test_a_call_starts_with_no_model_kept():
+    before = model_cache.model_for(make_batch([_scene()]))
+    simulate([_scene()])  # the same links: served, were the model still kept
+    kept = [model for model, _ in model_cache._MODELS.values()]
+    assert kept and all(model is not before for model in kept)
