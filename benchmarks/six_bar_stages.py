@@ -28,7 +28,7 @@ STAGES = (
     (simulate, "load_scene", "scene load (assembly check)"),
     (elastic, "_near_singular", "near_singular"),
     (simulate, "_rigid_outputs", "rigid motion and joint forces"),
-    (elastic, "build_model", "model (matrices, layout)"),
+    (elastic, "model_for", "model (matrices, layout)"),
     (elastic, "period_terms", "period terms"),
     (elastic, "monodromy", "periodic start (monodromy)"),
     (elastic, "periodic_state", "periodic start (state)"),
