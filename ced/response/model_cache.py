@@ -1,4 +1,4 @@
-"""Models reused between the small batches of one process that share their links.
+"""Models reused between the small batches of one call that share their links.
 
 :func:`ced.response.model.build_model` costs a few milliseconds a call whatever the batch's
 size (element matrices, component modes, recovery operators: many small numpy calls). The
@@ -9,8 +9,9 @@ first (a ladder changes the steps, never the links; its climbers are a subset of
 before). :func:`model_for` keeps the last few models of small batches and serves a batch
 whose every case has the links and start configuration of some case of a kept model,
 whatever their speed, time grid, outputs other than the stations, or names, none of which a
-model depends on (:func:`model_key`): its model is the kept one's at those cases (every model array but the
-stations has a leading case axis).
+model depends on (:func:`model_key`): its model is the kept one's at those cases (every model
+array but the stations has a leading case axis). The pilots' and companions' models are bit
+for bit those a fresh build gives (``tests/response/test_model_cache.py``).
 
 :func:`ced.simulation.simulate.simulate` starts each call with none kept (:func:`clear`), so
 that a call's time and results do not depend on what the process solved before.

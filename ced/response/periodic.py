@@ -21,7 +21,7 @@ __all__ = ["Monodromy", "monodromy", "periodic_state", "floquet", "shoot", "reso
 #: A Floquet multiplier μ with |1 − μ| below this is near resonance: a crank harmonic k within
 #: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ... (per input turn: for a
 #: period of several turns the gap grows with them, :func:`floquet`'s ``turns``, so that it
-#: stands for the same band of frequency: |1 − μ| ≈ |ωT − 2πk| grows with the period T) ...
+#: stands for the same band of frequency, |1 − μ| ≈ |ωT − 2πk| growing with the period T) ...
 RESONANCE_GAP = 0.05
 #: ... and the case is flagged resonant when such near-resonant modes carry more than this
 #: share of the periodic displacement (a barely excited high mode near a harmonic is not).
@@ -262,9 +262,9 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
     near = np.flatnonzero(np.abs(1.0 - mu) < gap)
     if np.any(mu[near] == 1.0):
         return None  # exact resonance
-    gap = np.abs(mu[near, None] - mu[None, :])
-    gap[np.arange(len(near)), near] = np.inf
-    if gap.min() < _CLUSTER:
+    spacing = np.abs(mu[near, None] - mu[None, :])
+    spacing[np.arange(len(near)), near] = np.inf
+    if spacing.min() < _CLUSTER:
         return None
     r = Phi.shape[0]
     try:
