@@ -10,8 +10,14 @@ before). :func:`model_for` keeps the last few models of small batches and serves
 whose every case has the links and start configuration of some case of a kept model,
 whatever their speed, time grid, outputs other than the stations, or names, none of which a
 model depends on (:func:`model_key`): its model is the kept one's at those cases (every model
-array but the stations has a leading case axis). The pilots' and companions' models are bit
-for bit those a fresh build gives (``tests/response/test_model_cache.py``).
+array but the stations has a leading case axis). That is a fresh build's bit for bit
+(``tests/response/test_model_cache.py``) except where a Craig–Bampton basis depends on the
+batch: a static load vector that is dependent in one case is dropped for all of the batch's
+cases (:mod:`ced.fem.component_modes`), so a subset served keeps its batch's basis where a
+build of the subset alone could keep the vector (a default-study chunk: 3 of 500
+companions, their error estimates moved by up to 7e-4). A sub-batch of the spectral solver's
+climbing cases (:mod:`ced.response.collocation`) needs exactly that: its reduced coordinates
+must be the whole batch's.
 
 :func:`ced.simulation.simulate.simulate` starts each call with none kept (:func:`clear`), so
 that a call's time and results do not depend on what the process solved before.
