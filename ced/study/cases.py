@@ -420,11 +420,14 @@ def scene_for(config: dict, kind: str, lengths: dict, speed: float, material,
     mechanism.update({k: grid[k] for k in ("branch", "branch2")
                       if k in FIXED_KEYS[kind] and k in grid})
     base["mechanism"] = mechanism
-    links = base.setdefault("links", {})
-    default = links.setdefault("default", {})
+    # A null block is a scene's defaults (load_scene reads it so): filled in here like an
+    # absent one (a block that is no mapping is refused by the config's validation).
+    links = base["links"] = base.get("links") or {}
+    default = links["default"] = links.get("default") or {}
     default["material"] = copy.deepcopy(material)
     default["section"] = dict(section)
-    base.setdefault("drive", {})["speed"] = speed
+    drive = base["drive"] = base.get("drive") or {}
+    drive["speed"] = speed
     return base
 
 

@@ -234,6 +234,20 @@ def apply_schema(config: Mapping) -> dict:
     return filled
 
 
+def _check_base_blocks(config: dict) -> None:
+    """The base scene's blocks that the case table fills in (``mechanism``, ``links`` and its
+    ``default``, ``drive``) are mappings, or null for the scene's defaults; the rest of the
+    base scene is checked as a scene (:func:`_check_scenes`)."""
+    base = config.get("base_scene") or {}
+    blocks = {key: base.get(key) for key in ("mechanism", "links", "drive")}
+    if isinstance(blocks["links"], Mapping):
+        blocks["links.default"] = blocks["links"].get("default")
+    for key, value in blocks.items():
+        if value is not None and not isinstance(value, Mapping):
+            raise SceneError(f"base_scene.{key}", "must be a mapping of its keys (or null for "
+                                                  f"the scene's defaults); got {shown(value)}")
+
+
 def _check_finite(value, path: str) -> None:
     """Refuse NaN and ±inf anywhere in ``value`` (``base_scene`` is left to ced.problem.scene)."""
     if isinstance(value, float) and not math.isfinite(value):
@@ -465,6 +479,7 @@ def _validated(config: Mapping, memory: int | None = None) -> tuple[dict, StudyE
     check_structure(config, "<config>")  # before anything walks it: alias bombs, deep nesting
     config = apply_schema(config)
     _check_finite(config, "<config>")
+    _check_base_blocks(config)
     load_sweep(config, root=SCHEMA_PATH.parents[2])  # the Snakefile reads it at parse time
     points = grid_points(config)
     if points > MAX_GRID_POINTS:

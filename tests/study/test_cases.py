@@ -10,6 +10,7 @@ from snakemake.utils import validate
 
 from ced.problem.errors import SceneError
 from ced.problem.mechanism import FAMILIES, assembly_error, classify
+from ced.study.config import validate_config
 from ced.study.cases import (CASE_KEYS, case_config, case_table, chunk_rows, chunk_scenes, chunks,
                              family_sizes, grid_values, study_size)
 
@@ -124,6 +125,26 @@ def test_scene_of_a_row(small):
     # building a row's scene must not alias the config
     scene["links"]["crank"]["flexible"] = True
     assert small["base_scene"]["links"]["crank"] == {"flexible": False}
+
+
+@pytest.mark.parametrize("block", [{"links": None}, {"links": {"default": None}},
+                                   {"drive": None}])
+def test_null_base_scene_blocks_are_the_scene_defaults(small, block):
+    # A scene reads a null block as its defaults; a row's scene fills it in as an absent one
+    # (the fuzz test of tests/test_bad_input.py found links: null raising AttributeError).
+    config = {**small, "base_scene": {**small["base_scene"], **block}}
+    scene = case_table(config)[0]["scene"]
+    assert scene["links"]["default"]["material"] == "steel"
+    assert scene["drive"]["speed"] == 100.0
+
+
+@pytest.mark.parametrize("key, value", [("links", True), ("drive", [1.0]),
+                                        ("links", {"default": 3})])
+def test_a_base_scene_block_that_is_no_mapping_is_refused_by_its_key(small, key, value):
+    config = copy.deepcopy(small)
+    config["base_scene"][key] = value
+    with pytest.raises(SceneError, match=f"base_scene.{key}"):
+        validate_config(config, memory=2**40)
 
 
 def test_families_filter_and_case_ids(small):
