@@ -1,5 +1,6 @@
-"""Models kept between small batches (ced.response.model_cache): a kept model serves exactly
-what a fresh build would, and only where the links are the same."""
+"""Models kept between the small batches of a call (ced.response.model_cache): a kept model
+serves what a fresh build gives (bit for bit where, as here, no Craig–Bampton basis depends on
+the batch's other cases), and only where the links and start configuration are the same."""
 import dataclasses
 
 import numpy as np
