@@ -70,7 +70,9 @@ STATUS_ADVICE = {
                                "does not exist",
     "failed": "read `message`; CED_TRACEBACK=1 with `ced run` shows where",
     "not_assemblable": "nothing: the grid point is not a linkage",
-    "buckled": "a link is compressed beyond its Euler load: stiffen it or lower the speed",
+    "buckled": "a link is compressed beyond its Euler load: stiffen it or lower the speed "
+               "(with near_singular, at a change point or toggle: the linkage itself loses "
+               "its stiffness there, as near_singular says)",
     "tolerance_unmet": "loosen `tolerance` or set `discretization` by hand (finer elements "
                        "and steps)",
     "thick_link": "use `discretization.formulation: plane_stress` for that link geometry",
