@@ -49,6 +49,9 @@ class Model:
     modal_damping: np.ndarray | None = None  # (case, ny, ny)
     points: dict[str, np.ndarray] | None = None  # joint at a point of a link -> (case, 2) m
     ternary: dict[str, dict[str, np.ndarray]] | None = None  # rigid link with points -> body
+    # Where a model kept by ced.response.model_cache came from: (its serial, the kept model's
+    # case of each case); None for a model built for its batch alone.
+    origin: tuple[int, np.ndarray] | None = None
 
 
 def build_model(batch: Batch) -> Model:

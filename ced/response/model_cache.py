@@ -19,6 +19,11 @@ companions, their error estimates moved by up to 7e-4). A sub-batch of the spect
 climbing cases (:mod:`ced.response.collocation`) needs exactly that: its reduced coordinates
 must be the whole batch's.
 
+A kept model's cases also keep the system terms evaluated for them (:func:`kept_terms`): a
+ladder's rungs are evaluated at the same phases of the period, so each phase is evaluated once
+per case and speed (the benchmark sweep's pilots evaluated 17,184 case-phases, not 24,960,
+with every result the same bit for bit).
+
 :func:`ced.simulation.simulate.simulate` starts each call with none kept (:func:`clear`), so
 that a call's time and results do not depend on what the process solved before.
 
@@ -31,6 +36,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 from collections import OrderedDict
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,7 +45,8 @@ from ..problem.scene import dump_scene
 from .batch import Batch
 from .model import Model, build_model
 
-__all__ = ["model_for", "model_key", "clear", "MAX_CASES", "MAX_MODELS"]
+__all__ = ["model_for", "model_key", "kept_terms", "clear", "MAX_CASES", "MAX_MODELS",
+           "MAX_TERM_BYTES"]
 
 #: Batches of more cases are built afresh: their build is a small part of their solve, and
 #: their models are large.
@@ -54,9 +62,15 @@ MAX_MODELS = 8
 _MODEL_KEYS = ("mechanism", "links", "point_masses", "discretization", "effects", "damping",
                "gravity")
 
+#: Bytes of system terms kept at most (:func:`kept_terms`), over every kept model.
+MAX_TERM_BYTES = 200e6
+
 #: Kept models by a serial number: (model, {model key: a case of it}).
 _MODELS: OrderedDict[int, tuple[Model, dict]] = OrderedDict()
 _SERIAL = itertools.count()
+#: Terms of the kept models by serial, newest last (:class:`_KeptTerms`).
+_TERMS: dict[int, list] = {}
+_TERM_BYTES = [0]
 
 
 def model_key(scene: dict) -> str:
@@ -92,13 +106,14 @@ def _cases(value, cases: np.ndarray, size: int):
 
 def _at_cases(model: Model, batch: Batch, cases: np.ndarray) -> Model:
     """``model`` at ``cases`` of its batch, as the model of ``batch``."""
+    serial, rows = model.origin
     if len(cases) == model.batch.size and np.array_equal(cases, np.arange(len(cases))):
         return dataclasses.replace(model, batch=batch)
     size = model.batch.size
     fields = {f.name: _cases(getattr(model, f.name), cases, size)
               for f in dataclasses.fields(model)
-              if f.name not in ("batch", "layout", "stations", "effects")}
-    return dataclasses.replace(model, batch=batch, **fields)
+              if f.name not in ("batch", "layout", "stations", "effects", "origin")}
+    return dataclasses.replace(model, batch=batch, origin=(serial, rows[cases]), **fields)
 
 
 def model_for(batch: Batch) -> Model:
@@ -125,16 +140,119 @@ def model_for(batch: Batch) -> Model:
         if all(k in where for k in keys):
             _MODELS.move_to_end(kept)
             return _at_cases(model, batch, np.array([where[k] for k in keys]))
-    model = build_model(batch)
+    serial = next(_SERIAL)
     where: dict = {}
     for i, k in enumerate(keys):
         where.setdefault(k, i)
-    _MODELS[next(_SERIAL)] = (model, where)
+    # A case is known by the first case of its model key: the model is the same at both.
+    model = dataclasses.replace(build_model(batch),
+                                origin=(serial, np.array([where[k] for k in keys])))
+    _MODELS[serial] = (model, where)
+    _TERMS[serial] = []
     while len(_MODELS) > MAX_MODELS:
-        _MODELS.popitem(last=False)
+        dropped, _ = _MODELS.popitem(last=False)
+        _TERM_BYTES[0] -= sum(_nbytes(entry) for entry in _TERMS.pop(dropped))
     return model
 
 
+class _KeptTerms(NamedTuple):
+    """Terms of some cases of a kept model at some phases of their period."""
+
+    cases: dict[tuple[int, float], int]  # (case of the kept model, speed) -> row
+    fractions: np.ndarray  # (fraction,) of the period, sorted
+    times: np.ndarray  # (row, fraction) s
+    values: dict[str, np.ndarray]  # name -> (row, fraction, ...)
+
+
+def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
+               evaluate: Callable[[np.ndarray], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The system terms of ``model``'s cases at ``phases``: those evaluated before in this
+    call where they were, the others by ``evaluate`` (and kept).
+
+    A discretization ladder solves its cases at 32, 64, 128, … steps per revolution. The
+    terms of a rung are evaluated at its steps (up to 128) or at 64 phases of the period
+    (:mod:`ced.response.period_terms`): all of them phases of the 128-step grid, at the same
+    times to the bit whatever the rung (the steps are powers of two apart), so a ladder need
+    evaluate each phase once. Kept are the terms of models from :func:`model_for`
+    (``model.origin``), whose cases are known by their kept model's case and their speed
+    (the cases of one model key differ at most in speed, :func:`model_key`), at most
+    :data:`MAX_TERM_BYTES` of them; reused are terms at the very same times only.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    h : numpy.ndarray
+        Step size per case, s, shape (case,).
+    phases : numpy.ndarray
+        Where, in steps of ``h`` (fractional allowed), shape (phase,).
+    evaluate : callable
+        ``evaluate(columns)`` → the terms at ``phases[columns]`` of every case, each
+        (case, len(columns), …).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``evaluate``'s terms at every phase, bit for bit.
+    """
+    steps = {s["time"]["steps_per_revolution"] for s in model.batch.scenes}
+    entries = _TERMS.get(model.origin[0]) if model.origin is not None else None
+    if entries is None or len(steps) != 1:
+        return evaluate(np.arange(len(phases)))
+    fractions = phases / steps.pop()
+    times = h[:, None] * phases[None, :]
+    cases = [(int(row), float(scene["drive"]["speed"]))
+             for row, scene in zip(model.origin[1], model.batch.scenes)]
+    best, have = None, np.zeros(len(phases), bool)
+    for entry in reversed(entries):
+        rows = [entry.cases.get(c) for c in cases]
+        if None in rows:
+            continue
+        at = np.minimum(np.searchsorted(entry.fractions, fractions), len(entry.fractions) - 1)
+        found = (entry.fractions[at] == fractions) & (entry.times[rows][:, at] == times).all(0)
+        if found.sum() > have.sum():
+            best, have, best_rows, best_at = entry, found, rows, at
+            if found.all():
+                break
+    missing = np.flatnonzero(~have)
+    new = evaluate(missing) if len(missing) else {}
+    if best is None:
+        out = new
+    else:
+        known = np.flatnonzero(have)
+        ix = (np.array(best_rows)[:, None], best_at[known][None, :])
+        out = {}
+        for name, x in best.values.items():
+            out[name] = np.empty((len(cases), len(phases)) + x.shape[2:])
+            out[name][:, known] = x[ix]
+            if len(missing):
+                out[name][:, missing] = new[name]
+    if len(missing):
+        _keep(model.origin[0], cases, fractions, times, out)
+    return out
+
+
+def _keep(serial: int, cases: list, fractions: np.ndarray, times: np.ndarray,
+          values: dict) -> None:
+    """Keep terms at ``fractions`` of ``cases``, the oldest dropped beyond the bytes allowed."""
+    size = sum(x.nbytes for x in values.values())
+    if size > MAX_TERM_BYTES:
+        return
+    while _TERM_BYTES[0] + size > MAX_TERM_BYTES:
+        oldest = next(k for k, v in _TERMS.items() if v)
+        _TERM_BYTES[0] -= _nbytes(_TERMS[oldest].pop(0))
+    order = np.argsort(fractions, kind="stable")
+    _TERMS[serial].append(_KeptTerms({c: i for i, c in enumerate(cases)}, fractions[order],
+                                     times[:, order], {k: x[:, order] for k, x in values.items()}))
+    _TERM_BYTES[0] += size
+
+
+def _nbytes(entry: _KeptTerms) -> int:
+    return sum(x.nbytes for x in entry.values.values())
+
+
 def clear() -> None:
-    """Forget every kept model."""
+    """Forget every kept model and its terms."""
     _MODELS.clear()
+    _TERMS.clear()
+    _TERM_BYTES[0] = 0

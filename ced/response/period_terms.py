@@ -29,6 +29,7 @@ import numba as nb
 import numpy as np
 
 from .model import Model, terms_at
+from .model_cache import kept_terms
 from .step_pattern import StepOrder, nonzero_pattern, pack, step_order, unpack
 
 __all__ = ["PeriodTerms", "period_terms", "with_sparsity", "evaluate_terms",
@@ -245,7 +246,9 @@ _CHUNK_BYTES = 50e6
 
 
 def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str, np.ndarray]:
-    """Terms at ``phases`` of every case, each its own array, evaluated in chunks of phases.
+    """Terms at ``phases`` of every case, each its own array, evaluated in chunks of phases
+    (those a kept model evaluated before in this call are reused:
+    :func:`ced.response.model_cache.kept_terms`).
 
     Parameters
     ----------
@@ -263,21 +266,27 @@ def evaluate_terms(model: Model, h: np.ndarray, phases: np.ndarray) -> dict[str,
         and ``projection`` (case, phase, row, nfree), its rows ``layout.projection_rows`` (the
         others are zero); ``mass`` and ``damping`` are absent where no effect forms them.
     """
+    return kept_terms(model, h, phases, lambda columns: _evaluate(
+        model, h[:, None] * phases[None, columns]))
+
+
+def _evaluate(model: Model, times: np.ndarray) -> dict[str, np.ndarray]:
+    """:func:`evaluate_terms` at ``times`` (case, time), s."""
     layout = model.layout
     per_phase = model.batch.size * 8 * (4 * layout.ny**2 + 3 * layout.nz * layout.ny)
     chunk = int(max(4, _CHUNK_BYTES // max(per_phase, 1)))
     out: dict[str, np.ndarray] = {}
-    for start in range(0, len(phases), chunk):
-        part = phases[start:start + chunk]
+    for start in range(0, times.shape[1], chunk):
+        part = times[:, start:start + chunk]
         # The projection's rows that can be nonzero only (Layout.projection_rows).
-        terms, P = terms_at(model, h[:, None] * part[None, :], compact=True)
+        terms, P = terms_at(model, part, compact=True)
         parts = {"projection": P,
                  **{name: getattr(terms, name) for name in _NAMES[:-1]
                                      if getattr(terms, name) is not None}}
         for name, x in parts.items():
             if name not in out:
-                out[name] = np.empty((x.shape[0], len(phases)) + x.shape[2:])
-            out[name][:, start:start + len(part)] = x
+                out[name] = np.empty((x.shape[0], times.shape[1]) + x.shape[2:])
+            out[name][:, start:start + part.shape[1]] = x
     return out
 
 

@@ -115,3 +115,66 @@ def test_a_call_starts_with_no_model_kept():
     simulate([_scene()])  # the same links: served, were the model still kept
     kept = [model for model, _ in model_cache._MODELS.values()]
     assert kept and all(model is not before for model in kept)
+
+
+def _counted_evaluations(monkeypatch):
+    """Case-phases evaluated by ced.response.period_terms._evaluate, as a list to sum."""
+    from ced.response import period_terms
+    counted, evaluate = [], period_terms._evaluate
+    monkeypatch.setattr(period_terms, "_evaluate",
+                        lambda model, times: counted.append(times.size) or evaluate(model, times))
+    return counted, evaluate
+
+
+def _ladder_rung(speeds, steps):
+    """A batch at ``steps`` per revolution and the phases its period terms are evaluated at
+    (every step up to 128, else 64 samples: ced.response.period_terms)."""
+    batch = make_batch([_scene(speed=s, steps=steps) for s in speeds])
+    phases = np.arange(steps, dtype=float) if steps <= 128 else np.arange(64) * (steps / 64)
+    return batch, phases
+
+
+def test_a_ladder_evaluates_each_phase_once_and_gets_fresh_terms(monkeypatch):
+    from ced.response.period_terms import evaluate_terms
+    counted, evaluate = _counted_evaluations(monkeypatch)
+    speeds = (90.0, 100.0, 110.0)
+    for steps, climbing, new in ((32, speeds, 3 * 32), (64, speeds[1:], 2 * 32),
+                                 (128, speeds[1:], 2 * 64), (256, speeds[2:], 0),
+                                 (1024, speeds[2:], 0)):
+        batch, phases = _ladder_rung(climbing, steps)
+        counted.clear()
+        got = evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+        assert sum(counted) == new, steps
+        fresh = build_model(batch)
+        want = evaluate(fresh, batch.step_size[:, None] * phases[None, :])
+        assert got.keys() == want.keys() and {"mass", "stiffness", "force"} <= got.keys()
+        for name, value in want.items():
+            np.testing.assert_array_equal(got[name], value, err_msg=f"{steps} {name}")
+
+
+def test_terms_are_reused_at_the_same_times_of_the_same_speed_only(monkeypatch):
+    from ced.response.period_terms import evaluate_terms
+    counted, evaluate = _counted_evaluations(monkeypatch)
+    batch, phases = _ladder_rung((100.0,), 64)
+    evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+    kept = batch.step_size[0] * phases
+    for speed, steps in ((101.0, 64), (100.0, 96)):  # another speed; other times, some equal
+        batch, phases = _ladder_rung((speed,), steps)
+        times = batch.step_size[0] * phases
+        counted.clear()
+        got = evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+        same = np.isin(times, kept) if speed == 100.0 else np.zeros(steps, bool)
+        assert sum(counted) == steps - same.sum(), (speed, steps)
+        want = evaluate(build_model(batch), times[None, :])
+        for name, value in want.items():
+            np.testing.assert_array_equal(got[name], value, err_msg=f"{speed} {steps} {name}")
+
+
+def test_terms_beyond_the_bytes_allowed_are_not_kept(monkeypatch):
+    from ced.response.period_terms import evaluate_terms
+    monkeypatch.setattr(model_cache, "MAX_TERM_BYTES", 0)
+    counted, _ = _counted_evaluations(monkeypatch)
+    for _ in range(2):
+        batch, phases = _ladder_rung((100.0,), 64)
+        evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+    assert sum(counted) == 2 * 64 and not any(model_cache._TERMS.values())
