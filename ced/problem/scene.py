@@ -296,7 +296,8 @@ MEANINGS: dict[str, str] = {
                          "written to the dataset yet",
     "outputs.stations": "evenly spaced points along each link where station fields are "
                         "written (0 and 1 are the link's ends)",
-    "outputs.every": "write every n-th time step",
+    "outputs.every": ("write every n-th time step (the histories only: the peaks, dynamic "
+                      "amplification and error estimate are over every step)"),
     "outputs.error_estimate": "estimate each elastic case's discretization error from a coarser "
                               "companion solution (costs one more, cheaper solve)",
     "tolerance": "target relative error of the automatic choices (effects: auto, "

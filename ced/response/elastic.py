@@ -130,14 +130,16 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     series = result.pop(_SERIES, None)
     if series is not None and series.samples is not None:
         result[SERIES_SAMPLES] = series.samples
-    n_out = batch.n_steps // scene["outputs"]["every"] + 1
+    every = scene["outputs"]["every"]
     if qz is None:  # every case's peaks are its series' (peaks only, spectral)
         result.update(peak_deflection=series.peak_deflection, peak_stress=series.peak_stress)
-    elif qz.shape[1] > n_out:  # a two-turn period longer than the run (_peak_span)
-        if not peaks_only:  # the station fields of the run's steps
-            result.update(_recover(model, np.ascontiguousarray(qz[:, :n_out]), None, True,
-                                   allocate, series))
-        # The peaks (and the amplification) over the whole period, both turns.
+    elif every > 1 or qz.shape[1] > batch.n_steps + 1:
+        # The station fields at the output steps of the run; the peaks (and the
+        # amplification) over every step, and over the whole period of a two-turn motion
+        # longer than the run (_peak_span): a peak is no less for not being written.
+        if not peaks_only:
+            result.update(_recover(model, np.ascontiguousarray(qz[:, :batch.n_steps + 1:every]),
+                                   None, True, allocate, series))
         result.update(_recover(model, qz, qz_static, False, None, series))
     else:
         result.update(_recover(model, qz, qz_static, not peaks_only, allocate, series))
@@ -159,8 +161,8 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
 
 def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
               guesses: list | None = None):
-    """Joint and link displacements z at the output steps, dynamic and quasi-static
-    (case, out_step, nz), and the terms over one period (None without elastic DOFs); adds the
+    """Joint and link displacements z at every step of the run (whatever ``outputs.every``:
+    the peaks are over all of them), dynamic and quasi-static (case, step, nz), and the terms over one period (None without elastic DOFs); adds the
     Floquet results of a periodic start, and the series of a spectral one, to ``result``,
     and the forced-resonance flag to ``status``.
     Without ``full``, neither the quasi-static response (None, unless the model is
@@ -169,12 +171,12 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
     (its peaks are the series', :func:`elastic_response`).
 
     The period is :attr:`ced.response.batch.Batch.period_steps`: one input turn, or two for
-    a motion that passes a change point once a turn; the output steps then run on to the end
+    a motion that passes a change point once a turn; the steps then run on to the end
     of that period where the run is shorter (:func:`_peak_span`: its peaks cover both turns).
     The terms are formed over one period (:mod:`ced.response.period_terms`) and marched
     over by :class:`ced.response.marching.Marcher`; the quasi-static response, periodic too,
     is solved over the period only, and, unless it is the response itself (a quasi-static
-    model), returned at the output steps of :func:`_one_period` only. A spectral periodic
+    model), returned at the steps of :func:`_one_period` only. A spectral periodic
     state (:mod:`ced.response.collocation`) is found after the shooting and the
     forced-resonance check, so that flagged cases need not climb its ladder; the cases it
     leaves are shot and marched. A two-turn period is always shot: the series are in the
@@ -184,13 +186,13 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
     batch, layout = model.batch, model.layout
     scene = batch.scenes[0]
     ncase, ny, h = batch.size, layout.ny, batch.step_size
-    every = scene["outputs"]["every"]
     time_cfg = scene["time"]
     quasi_static = "elastic_inertia" not in model.effects  # K q = F at each instant
     turns = batch.period_steps // time_cfg["steps_per_revolution"]
     n_steps = _peak_span(batch.n_steps, batch.period_steps, turns,
                          quasi_static or time_cfg["start"] == "periodic")
-    out_steps = np.arange(0, n_steps + 1, every)
+    # Every step, whatever the output's spacing: the peaks are over all of them.
+    out_steps = np.arange(n_steps + 1)
     qz = np.zeros((ncase, len(out_steps), layout.nz))
     if not ny:
         return qz, qz.copy(), None
@@ -265,7 +267,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
             q0, v0 = _quasi_static_start(model, h)
         state = start(terms, q0, v0)
     if series is None or not series.solved.all():
-        _, record = marcher.march(state, n_steps, every)
+        _, record = marcher.march(state, n_steps, 1)
     else:
         record = np.empty((ncase, len(out_steps), ny))
     if series is not None and series.displacement is not None:  # the series' period repeats
@@ -432,7 +434,7 @@ def _recover(model: Model, qz: np.ndarray, qz_static: np.ndarray | None,
     The station fields are returned in float32, as they are stored; the peaks are taken from
     the float64 values first, into the arrays of ``allocate`` where given (numpy's path
     ignores it). ``fields=False`` returns the peaks alone. The cases a spectral solver
-    took (``series``) take their peaks from its series instead of the output steps
+    took (``series``) take their peaks from its series instead of the steps
     (:mod:`ced.response.collocation`). One compiled pass per
     case (:func:`ced.fem.recovery_kernel.recover`); ``CED_KERNEL=numpy`` takes the numpy path
     (:func:`ced.fem.recovery.link_fields` and :func:`ced.fem.recovery.peaks`), the reference

@@ -67,9 +67,10 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "natural_frequency": (
         ("case", "modal_angle", "mode"), "Hz", "natural frequency of the frozen linkage; "
         "negative, −√|λ|/2π, for a negative eigenvalue λ (status flag buckled)", _F64),
-    "peak_deflection": (("case", "link"), "m", "peak absolute deflection", _F64),
-    "peak_stress": (("case", "link"), "Pa",
-                    "peak absolute normal stress over time, stations and both outer fibres", _F64),
+    "peak_deflection": (("case", "link"), "m", "peak absolute deflection over every solver "
+                        "step (written or not: outputs.every)", _F64),
+    "peak_stress": (("case", "link"), "Pa", "peak absolute normal stress over every solver "
+                    "step (written or not: outputs.every), stations and both outer fibres", _F64),
     "dynamic_amplification": (
         ("case", "link"), "1", "peak dynamic over peak quasi-static deflection", _F64),
     "longitudinal_wave_speed": (
