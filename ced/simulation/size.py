@@ -111,7 +111,10 @@ def solver_bytes(scene: dict) -> int:
     change point, whose motion may repeat only every two,
     :attr:`ced.response.batch.Batch.motion_turns`); the modal analysis holds K
     and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
-    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns.
+    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns. With
+    ``outputs.every`` > 1 the displacements are held at every step of the run (the peaks are
+    over all of them, :mod:`ced.response.elastic`) where only every n-th is written:
+    16·(S + 1)·n for S steps (the independent and the link coordinates).
 
     Parameters
     ----------
@@ -130,7 +133,8 @@ def solver_bytes(scene: dict) -> int:
     shooting = scene["time"]["start"] == "periodic"
     turns = max(MOTION_TURNS) if case_family(scene) == "change_point" else 1
     period = 8 * turns * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
-    return period + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
+    history = 16 * (step_count(scene) + 1) * n if scene["outputs"]["every"] > 1 else 0
+    return period + history + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
 
 
 #: Bytes of solver working arrays one batch may hold: a larger batch is solved in parts

@@ -108,3 +108,15 @@ def test_case_seconds_grows_with_the_model():
     assert seconds(time={"start": "periodic"}) > seconds()
     assert seconds(modal={"angles": 72}) > seconds()
     assert seconds(outputs={"error_estimate": False}) < seconds()
+
+
+def test_a_thinned_history_counts_the_displacements_at_every_step():
+    # The peaks are over every step (ced.response.elastic): with outputs.every > 1 the
+    # displacements of every step are held although only every n-th is written.
+    from ced.response.batch import step_count
+    from ced.simulation.size import elastic_dofs, solver_bytes
+    scenes = [load_scene({"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1,
+                                        "coupler": 0.45, "rocker": 0.35},
+                          "outputs": {"every": every}}) for every in (1, 8)]
+    n, steps = elastic_dofs(scenes[0]), step_count(scenes[0])
+    assert solver_bytes(scenes[1]) - solver_bytes(scenes[0]) == 16 * (steps + 1) * n > 0
