@@ -46,7 +46,7 @@ from .batch import Batch
 from .model import Model, build_model
 
 __all__ = ["model_for", "model_key", "kept_terms", "clear", "MAX_CASES", "MAX_MODELS",
-           "MAX_TERM_BYTES"]
+           "MAX_TERM_BYTES", "MAX_TERM_ENTRY_BYTES"]
 
 #: Batches of more cases are built afresh: their build is a small part of their solve, and
 #: their models are large.
@@ -62,8 +62,10 @@ MAX_MODELS = 8
 _MODEL_KEYS = ("mechanism", "links", "point_masses", "discretization", "effects", "damping",
                "gravity")
 
-#: Bytes of system terms kept at most (:func:`kept_terms`), over every kept model.
-MAX_TERM_BYTES = 200e6
+#: Bytes of system terms kept at most (:func:`kept_terms`), over every kept model, and for one
+#: evaluation: a ladder's are a few MB each (64 MB in all on the benchmark sweep); a part of
+#: a study's chunk, up to 256 cases at 64 phases, is larger and not solved again.
+MAX_TERM_BYTES, MAX_TERM_ENTRY_BYTES = 128e6, 16e6
 
 #: Kept models by a serial number: (model, {model key: a case of it}).
 _MODELS: OrderedDict[int, tuple[Model, dict]] = OrderedDict()
@@ -176,7 +178,8 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
     evaluate each phase once. Kept are the terms of models from :func:`model_for`
     (``model.origin``), whose cases are known by their kept model's case and their speed
     (the cases of one model key differ at most in speed, :func:`model_key`), at most
-    :data:`MAX_TERM_BYTES` of them; reused are terms at the very same times only.
+    :data:`MAX_TERM_BYTES` of them (an evaluation larger than :data:`MAX_TERM_ENTRY_BYTES`
+    is not kept); reused are terms at the very same times only.
 
     Parameters
     ----------
@@ -236,7 +239,7 @@ def _keep(serial: int, cases: list, fractions: np.ndarray, times: np.ndarray,
           values: dict) -> None:
     """Keep terms at ``fractions`` of ``cases``, the oldest dropped beyond the bytes allowed."""
     size = sum(x.nbytes for x in values.values())
-    if size > MAX_TERM_BYTES:
+    if size > min(MAX_TERM_ENTRY_BYTES, MAX_TERM_BYTES):
         return
     while _TERM_BYTES[0] + size > MAX_TERM_BYTES:
         oldest = next(k for k, v in _TERMS.items() if v)
