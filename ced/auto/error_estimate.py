@@ -289,8 +289,8 @@ def companions(scene: dict, omega1_h: float = 0.0, collocation_points: int = 0
         else:  # the case was shot: so are its companions
             time["periodic_solver"] = "shooting"
             time["collocation_points"] = "auto"
-        # Output (and peak sampling) at least as dense in time as the scene's: the same
-        # instants when coarser, every step's worth of the scene's sampling when finer.
+        # Output at least as dense in time as the scene's: the same instants when coarser,
+        # every step's worth of the scene's when finer (the peaks are over every step).
         outputs = {**scene["outputs"],
                    "every": max(1, every * steps // spr) if steps < spr else every}
         return {**scene, "time": time, "outputs": outputs,
