@@ -162,9 +162,10 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
 def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
               guesses: list | None = None):
     """Joint and link displacements z at every step of the run (whatever ``outputs.every``:
-    the peaks are over all of them), dynamic and quasi-static (case, step, nz), and the terms over one period (None without elastic DOFs); adds the
-    Floquet results of a periodic start, and the series of a spectral one, to ``result``,
-    and the forced-resonance flag to ``status``.
+    the peaks are over all of them), dynamic and quasi-static (case, step, nz), and the terms
+    over one period (None without elastic DOFs); adds the Floquet results of a periodic
+    start, and the series of a spectral one, to ``result``, and the forced-resonance flag to
+    ``status``.
     Without ``full``, neither the quasi-static response (None, unless the model is
     quasi-static) nor the Floquet analysis nor the forced-resonance check; a spectral solve at
     a fixed number of points then returns (None, None, None) when every case has its series
