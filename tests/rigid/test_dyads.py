@@ -416,3 +416,35 @@ def test_compiled_point_placement_is_the_numpy_one_bit_for_bit(monkeypatch, name
     for field in ("joint_position", "joint_velocity", "joint_acceleration", "link_angle",
                   "link_angular_velocity", "link_angular_acceleration"):
         assert np.array_equal(getattr(out[0], field), getattr(out[1], field)), field
+
+
+#: A linkage of one RRR dyad that passes its change points (crank + ground = coupler + rocker,
+#: 0.1 + 0.4 = 0.35 + 0.15), started on one (θ0 = 0 and π) and off them.
+_CHANGE_POINT_DYAD = {"type": "linkage", "ground": {"A": [0.0, 0.0], "D": [0.4, 0.0]},
+                      "input": {"link": "crank", "pivot": "A", "tip": "B", "length": 0.1},
+                      "dyads": [{"kind": "RRR", "links": ["coupler", "rocker"],
+                                 "joints": ["B", "C", "D"], "lengths": [0.35, 0.15]}]}
+
+
+@pytest.mark.parametrize("start", [0.0, math.pi, 0.3])
+def test_compiled_rrr_placement_is_the_numpy_one_through_change_points(monkeypatch, start):
+    """dyads._rrr_compiled as _rrr's numpy expressions bit for bit where the dyad's solutions
+    meet: the branch tracked along the grid through its singular steps (their rates
+    interpolated), and followed off the grid."""
+    scenes = [load_scene({**RIGID, "mechanism": _CHANGE_POINT_DYAD,
+                          "drive": {"speed": w, "initial_angle": start},
+                          "time": {"revolutions": 2, "steps_per_revolution": 64}})
+              for w in (10.0, 37.0)]
+    out = []
+    for compiled in (True, False):
+        monkeypatch.setattr(kin, "COMPILED", compiled)
+        batch = make_batch(scenes)
+        grid = batch.rigid_motion(batch.step_size[:, None] * np.arange(129)[None])
+        off = batch.rigid_motion(batch.step_size[:, None] * (3.3 * np.arange(37) + 0.25)[None])
+        out.append((grid, off))
+    assert out[0][0].singular.any() == (start != 0.3)
+    for got, want in zip(*out):
+        for field in ("joint_position", "joint_velocity", "joint_acceleration", "link_angle",
+                      "link_angular_velocity", "link_angular_acceleration", "singular"):
+            assert np.array_equal(getattr(got, field), getattr(want, field)), field
+        assert np.array_equal(got.branch["coupler"], want.branch["coupler"])

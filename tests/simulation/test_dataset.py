@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ced.problem.status import STATUS_FLAGS, status_code, status_names
-from ced.simulation.dataset import VARIABLES
+from ced.problem.scene import load_scene
+from ced.simulation.dataset import VARIABLES, _scenes_json
 from ced.simulation.simulate import simulate
 from tests.test_io import ELASTIC, elastic, rigid  # noqa: F401 (fixtures: datasets written and read back)
 
@@ -20,6 +21,25 @@ def test_global_attributes(rigid):
     scenes = json.loads(attrs["scenes"])
     assert scenes[0]["mechanism"]["ground"] == 0.254
     assert attrs["effects"] == "inertia gravity"
+
+
+def test_scenes_attribute_is_the_json_of_the_scenes_text_for_text():
+    # Each distinct block written once (known again by marshal's bytes): the same text as
+    # the encoder's of the whole list, whatever repeats, differs only in type or sign, or
+    # cannot be marshalled.
+    four_bar = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                "rocker": 0.35}
+    scenes = [load_scene({"mechanism": four_bar, "drive": {"speed": w}})
+              for w in (10.0, 20.0, 10.0)]
+    scenes += [load_scene({"mechanism": {**four_bar, "coupler": 0.46}}),
+               {"a": 1, "b": 1.0, "c": True, "d": [0.0, -0.0], "é": "ü"},
+               {"b": 1.0, "a": 1.0, "c": 1, "d": (0.0, 0.0)},
+               {"x": np.float64(0.25), "y": float("nan"), "z": {2: None}},
+               {"x": 0.25, "y": [np.arange(2).tolist()], "z": {"2": None}}, [1, {"k": 2}]]
+    assert _scenes_json(scenes) == json.dumps(scenes, sort_keys=True, separators=(",", ":"))
+    assert _scenes_json([]) == "[]" and _scenes_json([{}]) == "[{}]"
+    with pytest.raises(TypeError):
+        _scenes_json([{"v": np.arange(2)}])
 
 
 @pytest.mark.parametrize("name", ["rigid", "elastic"])
