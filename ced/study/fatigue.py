@@ -273,7 +273,8 @@ def case_fatigue(ds: xr.Dataset) -> xr.Dataset | None:
     if "peak_stress" in ds:
         written = np.nan_to_num(peak, nan=0.0).max(axis=2)
         with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(written > 0.0, ds.peak_stress.values / written, 1.0)
+            ratio = np.where(written > 0.0,
+                             ds.peak_stress.transpose("case", "link").values / written, 1.0)
         scale = np.where(thinned(ds)[:, None] & np.isfinite(ratio), np.maximum(ratio, 1.0),
                          1.0)
     for c in range(ncase):
