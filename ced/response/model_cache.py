@@ -189,12 +189,9 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
 
     Parameters
     ----------
-    model : Model
-        The batch's model.
-    h : numpy.ndarray
-        Step size per case, s, shape (case,).
-    phases : numpy.ndarray
-        Where, in steps of ``h`` (fractional allowed), shape (phase,).
+    model, h, phases
+        As :func:`ced.response.period_terms.evaluate_terms`'s: the batch's model, the step
+        per case (s) and where, in steps.
     evaluate : callable
         ``evaluate(columns)`` → the terms at ``phases[columns]`` of every case, each
         (case, len(columns), …).
