@@ -6,6 +6,8 @@ solvers run vectorized across cases.
 """
 from __future__ import annotations
 
+import dataclasses
+import marshal
 import math
 from dataclasses import dataclass, field
 
@@ -15,6 +17,7 @@ from ..problem.linkage import bar_ends, describe, four_bar_loops
 from ..problem.mechanism import classify, input_limits, topology
 from ..rigid import dyads, kinematics
 from ..rigid import inverse_dynamics as newton_euler
+from ..rigid import speed_family
 from ..rigid.inverse_dynamics import BodyProperties, InverseDynamics
 
 __all__ = ["Batch", "make_batch", "structure_key", "case_family", "loop_families", "step_count",
@@ -147,6 +150,11 @@ class Batch:
     _forces_on_grid: dict = field(default_factory=dict, repr=False, compare=False)
     #: :attr:`motion_turns`, once found.
     _turns: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: The cases' :class:`ced.rigid.speed_family.SpeedFamilies` once found (False: not yet;
+    #: None: their steps are not the same phases of the input).
+    _families: object = field(default=False, repr=False, compare=False)
+    #: The families' motion at unit speed at the steps 0 … k of the step grid, by k.
+    _unit_on_grid: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -337,11 +345,11 @@ class Batch:
         """Inverse dynamics (:func:`ced.rigid.inverse_dynamics.inverse_dynamics`) of the rigid
         motion at ``times`` (case, n) s.
 
-        On the step grid the systems of the motion kept by :meth:`rigid_motion` are solved
-        once (the rigid outputs' period) and the forces at later steps read from them (the
-        period's terms sampled or evaluated chunk by chunk): the same bits as solving them
-        again, a third of the rigid outputs' inverse dynamics saved. Away from the grid, or
-        with ``CED_KERNEL=numpy``, they are solved as given.
+        On the step grid the forces are P + Ω² Q of each case's speed family
+        (:meth:`_family_forces`, :mod:`ced.rigid.speed_family`: its systems solved at unit
+        speed once, the rigid outputs' period, and the forces at later steps read from them:
+        the period's terms sampled or evaluated chunk by chunk). Away from the grid they are
+        solved as given.
 
         Parameters
         ----------
@@ -357,7 +365,15 @@ class Batch:
         motion = self.rigid_motion(times) if motion is None else motion
         gravity = self.gravity if gravity is None else np.asarray(gravity, float)
         steps = self._grid_steps(times)
-        if steps is not None and newton_euler.COMPILED:
+        families = None if steps is None else self._speed_families()
+        per_case = np.broadcast_to(gravity, (self.size, 2))
+        if (families is not None and self._on_grid is not None
+                and self._on_grid[0] in self._unit_on_grid and _one_gravity(per_case, families)):
+            forces = self._family_forces(self._on_grid[0], steps, families, per_case,
+                                         bool(inertia))
+            if forces is not None:
+                return forces
+        elif steps is not None and newton_euler.COMPILED:
             last, grid = self._on_grid
             key = (bool(inertia), gravity.tobytes())
             kept = self._forces_on_grid.get(key)
@@ -368,6 +384,69 @@ class Batch:
             if forces is not None:
                 return forces
         return newton_euler.inverse_dynamics(motion, self.bodies, gravity, inertia=inertia)
+
+    def _family_forces(self, last: int, steps: np.ndarray,
+                       families: speed_family.SpeedFamilies, gravity: np.ndarray,
+                       inertia: bool) -> InverseDynamics | None:
+        """The forces at ``steps`` of the grid, P + Ω² Q of each case's family
+        (:mod:`ced.rigid.speed_family`): the families' systems at unit speed solved for
+        gravity alone (P) and for the d'Alembert forces alone (Q). The compiled path solves
+        them once over the grid motion and keeps them (read at ``steps``:
+        :func:`ced.rigid.inverse_dynamics.forces_at`); ``CED_KERNEL=numpy`` solves them at
+        ``steps``, the same bits. None where they are zero or cannot be read at ``steps``."""
+        unit = self._unit_on_grid[last]
+        bodies = speed_family.bodies_at_cases(self.bodies, families.nodes)
+        g = np.ascontiguousarray(gravity[families.nodes])
+        loads = ((g, False) if g.any() else None, (np.zeros_like(g), True) if inertia else None)
+        if not any(loads):
+            return None
+        at = kinematics.at_steps(unit, steps)
+        if not newton_euler.COMPILED:
+            parts = [None if load is None else
+                     newton_euler.inverse_dynamics(at, bodies, load[0], inertia=load[1])
+                     for load in loads]
+            return speed_family.combined_forces(*parts, families, self.speed)
+        key = (inertia, gravity.tobytes(), "families")
+        kept = self._forces_on_grid.get(key)
+        if kept is None or kept[0] != last:
+            kept = (last, *(None if load is None else newton_euler.solutions(unit, bodies, *load)
+                            for load in loads))
+            self._forces_on_grid[key] = kept
+        parts = [None if k is None else newton_euler.forces_at(k, at, steps) for k in kept[1:]]
+        if any(k is not None and p is None for k, p in zip(kept[1:], parts)):
+            return None
+        return speed_family.combined_forces(*parts, families, self.speed)
+
+    def _speed_families(self) -> speed_family.SpeedFamilies | None:
+        """The cases grouped by everything of their rigid problem but the speed
+        (:mod:`ced.rigid.speed_family`), whose motion and forces on the step grid are solved
+        at unit speed and scaled; None where the steps of the cases are not the same phases
+        of the input (they are: the steps per revolution are part of :func:`structure_key`)."""
+        if self._families is False:
+            phase_step = self.speed * self.step_size  # 2π/N for every case
+            self._families = (speed_family.speed_families(self._rigid_keys())
+                              if np.allclose(phase_step, self._phase_step(), rtol=1e-12, atol=0)
+                              else None)
+        return self._families
+
+    def _phase_step(self) -> float:
+        """The input's phase per step, 2π/N rad (N steps per revolution)."""
+        return 2.0 * math.pi / self.scenes[0]["time"]["steps_per_revolution"]
+
+    def _rigid_keys(self) -> list[bytes]:
+        """Per case, the bytes of everything its rigid motion and forces depend on but the
+        speed: drive, assembly branch, mechanism (lengths, dyads), masses and gravity."""
+        columns = [self.initial_angle, self.amplitude, self.branch.astype(float)]
+        columns += [self.lengths[name] for name in sorted(self.lengths)]
+        if self.gravity is not None:
+            columns.append(self.gravity)
+        if self.bodies is not None:
+            columns += [getattr(self.bodies, f.name) for f in dataclasses.fields(self.bodies)
+                        if getattr(self.bodies, f.name) is not None]
+        table = np.ascontiguousarray(np.column_stack(
+            [np.asarray(c, float).reshape(self.size, -1) for c in columns]))
+        described = self.descriptions or [None] * self.size
+        return [row.tobytes() + marshal.dumps(d) for row, d in zip(table, described)]
 
     def _grid_steps(self, times: np.ndarray) -> np.ndarray | None:
         """The steps k (n,) with ``times`` exactly step_size × k in every case, ascending from
@@ -384,19 +463,52 @@ class Batch:
                       follow: dict | None = None) -> kinematics.RigidMotion:
         """The motion at ``times`` (case, n) s, its assembly solutions tracked along them
         from the scenes' branches, or given by ``follow``
-        (:func:`ced.rigid.kinematics.branch_between`)."""
-        motion = kinematics.input_motion(times, self.speed, self.initial_angle, self.amplitude)
-        L = self.lengths
+        (:func:`ced.rigid.kinematics.branch_between`).
+
+        On the step grid (steps 0 … k), every case takes its speed family's motion at unit
+        speed, scaled (:mod:`ced.rigid.speed_family`), solved once per k and kept."""
+        families = None if follow is not None else self._speed_families()
+        steps = None if families is None else self._grid_steps(times)
+        if steps is None or steps[0] != 0 or len(steps) != steps[-1] + 1:
+            return self._solve_cases(slice(None), times, follow)
+        last = int(steps[-1])
+        unit = self._unit_on_grid.get(last)
+        if unit is None:
+            phases = self._phase_step() * np.arange(last + 1, dtype=float)
+            nodes = families.nodes
+            unit = self._solve_cases(nodes, np.repeat(phases[None, :], len(nodes), axis=0),
+                                     None, np.ones(len(nodes)))
+            self._unit_on_grid[last] = unit
+        return speed_family.scaled_motion(unit, families, self.speed, times)
+
+    def _solve_cases(self, cases: slice | np.ndarray, times: np.ndarray,
+                     follow: dict | None, speed: np.ndarray | None = None
+                     ) -> kinematics.RigidMotion:
+        """:meth:`_solve_motion` of ``cases`` at their ``times`` (case of ``cases``, n), each
+        case solved, at its own speed or at ``speed`` (rad/s, one per case of ``cases``)."""
+        speed = self.speed[cases] if speed is None else speed
+        motion = kinematics.input_motion(times, speed, self.initial_angle[cases],
+                                         self.amplitude[cases])
+        L = {name: value[cases] for name, value in self.lengths.items()}
         if self.mechanism_type == "four_bar":
             return kinematics.four_bar(
-                L["ground"], L["crank"], L["coupler"], L["rocker"], motion, self.branch,
-                None if follow is None else follow["coupler"])
+                L["ground"], L["crank"], L["coupler"], L["rocker"], motion,
+                self.branch[cases], None if follow is None else follow["coupler"])
         if self.mechanism_type == "slider_crank":
-            return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion, self.branch)
+            return kinematics.slider_crank(L["crank"], L["rod"], L["offset"], motion,
+                                           self.branch[cases])
         if self.mechanism_type == "single_link":
             return kinematics.single_link(L["length"], motion)
         descriptions = self.descriptions or [describe(s["mechanism"]) for s in self.scenes]
+        if not isinstance(cases, slice):
+            descriptions = [descriptions[c] for c in cases]
         return dyads.linkage(descriptions, motion, follow)
+
+
+def _one_gravity(gravity: np.ndarray, families: speed_family.SpeedFamilies) -> bool:
+    """Whether each case's ``gravity`` (case, 2) is its family's first case's (a caller may
+    give another gravity than the batch's, which the families were found with)."""
+    return bool(np.array_equal(gravity, gravity[families.nodes[families.family]]))
 
 
 def _same_configuration(motion: kinematics.RigidMotion, lengths: np.ndarray,

@@ -167,6 +167,7 @@ class _KeptTerms(NamedTuple):
     """Terms of some cases of a kept model at some phases of their period."""
 
     cases: dict[tuple[int, float], int]  # (case of the kept model, speed) -> row
+    per_revolution: int  # steps per revolution of the batch they were evaluated for
     fractions: np.ndarray  # (fraction,) of the period, sorted
     times: np.ndarray  # (row, fraction) s
     values: dict[str, np.ndarray]  # name -> (row, fraction, ...)
@@ -185,7 +186,8 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
     (``model.origin``), whose cases are known by their kept model's case and their speed
     (the cases of one model key differ at most in speed, :func:`model_key`), at most
     :data:`MAX_TERM_BYTES` of them (an evaluation larger than :data:`MAX_TERM_ENTRY_BYTES`
-    is not kept); reused are terms at the very same times only.
+    is not kept); reused are terms at the very same times only, of step grids a power of two
+    apart (:func:`_same_phases`).
 
     Parameters
     ----------
@@ -205,14 +207,15 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
     entries = _TERMS.get(model.origin[0]) if model.origin is not None else None
     if entries is None or len(steps) != 1:
         return evaluate(np.arange(len(phases)))
-    fractions = phases / steps.pop()
+    per_revolution = steps.pop()
+    fractions = phases / per_revolution
     times = h[:, None] * phases[None, :]
     cases = [(int(row), float(scene["drive"]["speed"]))
              for row, scene in zip(model.origin[1], model.batch.scenes)]
     best, have = None, np.zeros(len(phases), bool)
     for entry in reversed(entries):
         rows = [entry.cases.get(c) for c in cases]
-        if None in rows:
+        if None in rows or not _same_phases(entry.per_revolution, per_revolution):
             continue
         at = np.minimum(np.searchsorted(entry.fractions, fractions), len(entry.fractions) - 1)
         found = (entry.fractions[at] == fractions) & (entry.times[rows][:, at] == times).all(0)
@@ -234,12 +237,21 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
             if len(missing):
                 out[name][:, missing] = new[name]
     if len(missing):
-        _keep(model.origin[0], cases, fractions, times, out)
+        _keep(model.origin[0], cases, per_revolution, fractions, times, out)
     return out
 
 
-def _keep(serial: int, cases: list, fractions: np.ndarray, times: np.ndarray,
-          values: dict) -> None:
+def _same_phases(kept: int, wanted: int) -> bool:
+    """Whether the step grids of ``kept`` and ``wanted`` steps per revolution put the input
+    at the same phases, bit for bit, at their common times: a power of two apart. The grid
+    motion is solved at the phases (2π/N) k (:mod:`ced.rigid.speed_family`); (2π/2N)(2k)
+    is (2π/N) k exactly, (2π/96)(3k) is not (2π/64)(2k)."""
+    ratio = max(kept, wanted) // min(kept, wanted)
+    return max(kept, wanted) % min(kept, wanted) == 0 and ratio & (ratio - 1) == 0
+
+
+def _keep(serial: int, cases: list, per_revolution: int, fractions: np.ndarray,
+          times: np.ndarray, values: dict) -> None:
     """Keep terms at ``fractions`` of ``cases``, the oldest dropped beyond the bytes allowed."""
     size = sum(x.nbytes for x in values.values())
     if size > min(MAX_TERM_ENTRY_BYTES, MAX_TERM_BYTES):
@@ -248,8 +260,9 @@ def _keep(serial: int, cases: list, fractions: np.ndarray, times: np.ndarray,
         oldest = next(k for k, v in _TERMS.items() if v)
         _TERM_BYTES[0] -= _nbytes(_TERMS[oldest].pop(0))
     order = np.argsort(fractions, kind="stable")
-    _TERMS[serial].append(_KeptTerms({c: i for i, c in enumerate(cases)}, fractions[order],
-                                     times[:, order], {k: x[:, order] for k, x in values.items()}))
+    _TERMS[serial].append(_KeptTerms({c: i for i, c in enumerate(cases)}, per_revolution,
+                                     fractions[order], times[:, order],
+                                     {k: x[:, order] for k, x in values.items()}))
     _TERM_BYTES[0] += size
 
 

@@ -158,12 +158,14 @@ def test_terms_are_reused_at_the_same_times_of_the_same_speed_only(monkeypatch):
     batch, phases = _ladder_rung((100.0,), 64)
     evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
     kept = batch.step_size[0] * phases
-    for speed, steps in ((101.0, 64), (100.0, 96)):  # another speed; other times, some equal
+    # another speed; other times, half of them equal; a grid 1.5 times finer, whose equal
+    # times are not at the same phases to the bit ((2π/96)·3k against (2π/64)·2k)
+    for speed, steps in ((101.0, 64), (100.0, 128), (100.0, 96)):
         batch, phases = _ladder_rung((speed,), steps)
         times = batch.step_size[0] * phases
         counted.clear()
         got = evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
-        same = np.isin(times, kept) if speed == 100.0 else np.zeros(steps, bool)
+        same = np.isin(times, kept) if steps == 128 else np.zeros(steps, bool)
         assert sum(counted) == steps - same.sum(), (speed, steps)
         want = evaluate(build_model(batch), times[None, :])
         for name, value in want.items():
