@@ -237,13 +237,16 @@ def range_reduction(Phi: np.ndarray, k: int) -> RangeReduction:
     -------
     RangeReduction
     """
-    Q = np.linalg.qr(Phi[..., :k])[0]
-    C = np.swapaxes(Q, -1, -2) @ Phi
-    # The first k columns are Q C's to the QR's round-off: only the others are checked (a
-    # third of the product).
-    residual = np.linalg.norm(Phi[..., k:] - Q @ C[..., k:], axis=(-2, -1))
-    ok = residual <= RANGE_TOLERANCE * np.linalg.norm(Phi, axis=(-2, -1))
-    return RangeReduction(ok, Q, C, C @ Q)
+    # A case that is not finite (a diverged march) fails the check quietly: the full
+    # eigenproblem then says so as before.
+    with np.errstate(invalid="ignore", over="ignore"):
+        Q = np.linalg.qr(Phi[..., :k])[0]
+        C = np.swapaxes(Q, -1, -2) @ Phi
+        # The first k columns are Q C's to the QR's round-off: only the others are checked (a
+        # third of the product).
+        residual = np.linalg.norm(Phi[..., k:] - Q @ C[..., k:], axis=(-2, -1))
+        ok = residual <= RANGE_TOLERANCE * np.linalg.norm(Phi, axis=(-2, -1))
+        return RangeReduction(ok, Q, C, C @ Q)
 
 
 def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int, ny: int,

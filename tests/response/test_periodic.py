@@ -237,6 +237,13 @@ def test_a_monodromy_its_first_columns_do_not_span_keeps_the_full_eigenproblem()
     assert np.array_equal(mu, np.linalg.eigvals(Phi))
     houbolt = _mathieu_chain_period(make_integrator("houbolt"))
     assert houbolt.spanning == 0
+    # A diverged case (not finite) fails the check quietly; the full eigenproblem then
+    # refuses it as it did.
+    Phi[1, 2, 3] = np.inf
+    with np.errstate(all="raise"):
+        assert not range_reduction(Phi, 6).ok.any()
+    with pytest.raises(np.linalg.LinAlgError):
+        floquet(Monodromy(p, Phi, np.ones((3, 9)), 6), 3)
 
 
 @settings(max_examples=30, deadline=None)
