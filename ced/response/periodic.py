@@ -3,7 +3,9 @@
 The discretized system is linear and time-periodic, so one period of the marching loop maps
 the discrete state linearly: s_N = Φ s_0 + p, Φ the monodromy matrix. The periodic state
 solves (I − Φ) s_0 = p; the eigenvalues of Φ are the Floquet multipliers, which reveal
-parametric instability (|μ| > 1) and resonance (a multiplier near 1).
+parametric instability (|μ| > 1) and resonance (a multiplier near 1). For the Newmark family
+one period leaves the acceleration a function of (q, v) to round-off, so Φ has rank 2n and its
+multipliers are found on its range, an eigenproblem of order 2n (:func:`range_reduction`).
 """
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ from .integrators import Integrator, NewmarkFamily, from_independent, independen
 from .marching import Marcher
 
 __all__ = ["Monodromy", "monodromy", "periodic_state", "floquet", "shoot", "resonant",
-           "RESONANCE_GAP", "RESONANCE_SHARE", "INSTABILITY_MARGIN", "COND_LIMIT"]
+           "RangeReduction", "range_reduction", "RESONANCE_GAP", "RESONANCE_SHARE",
+           "INSTABILITY_MARGIN", "COND_LIMIT", "RANGE_TOLERANCE"]
 
 #: A Floquet multiplier μ with |1 − μ| below this is near resonance: a crank harmonic k within
 #: about 1 % of a natural frequency (|1 − μ| ≈ 2πk |ω/kΩ − 1|) ... (per input turn: for a
@@ -34,11 +37,15 @@ class Monodromy(NamedTuple):
     """One period of the discrete system in the scaled independent state: s_N = Φ s_0 + p.
 
     ``p`` (case, 3n) the forced part, ``Phi`` (case, 3n, 3n) Φ, ``scale`` (case, 3n) the
-    state's scale ((q, h v, h² a) for the Newmark family; see :func:`monodromy`)."""
+    state's scale ((q, h v, h² a) for the Newmark family; see :func:`monodromy`),
+    ``spanning`` the number of leading columns of Φ expected to span its range to round-off
+    (2n for the Newmark family, whose acceleration one period determines from (q, v);
+    0: none, the whole eigenproblem is solved; :func:`floquet`)."""
 
     p: np.ndarray
     Phi: np.ndarray
     scale: np.ndarray
+    spanning: int = 0
 
 
 def monodromy(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int,
@@ -81,7 +88,12 @@ def monodromy(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_per
     terms = marcher.columns(r + 1)
     end, _ = marcher.march(from_independent(terms, scheme, *parts), steps_per_period)
     final = independent(scheme, end) * scale[:, :, None]  # (case, 3n, r + 1), scaled
-    return Monodromy(final[..., 0], final[..., 1:], scale)
+    # The Newmark family's (algorithmic) acceleration after a period follows from (q, v) but
+    # for the part its spurious root carries, decayed over the period's steps: Φ has rank 2n
+    # to round-off (on the Watt II of benchmarks/six_bar_cost.py σ_2n+1 ≈ 1e-18 σ_1), spanned
+    # by its (q, h v) columns; floquet() checks it case by case.
+    spanning = 2 * ny if isinstance(scheme, NewmarkFamily) else 0
+    return Monodromy(final[..., 0], final[..., 1:], scale, spanning)
 
 
 def periodic_state(period: Monodromy, ny: int, cases: np.ndarray | None = None):
@@ -104,7 +116,7 @@ def periodic_state(period: Monodromy, ny: int, cases: np.ndarray | None = None):
         The periodic state's independent part, each (case, ny, 1)
         (:func:`ced.response.integrators.from_independent` makes the state to march from).
     """
-    p, Phi, scale = period
+    p, Phi, scale = period.p, period.Phi, period.scale
     A = np.eye(Phi.shape[-1]) - Phi
     s0 = np.zeros_like(p)
     for c in np.flatnonzero(np.ones(len(p), bool) if cases is None else cases):
@@ -151,9 +163,14 @@ def _regular(A: np.ndarray) -> bool:
 def floquet(period: Monodromy, ny: int, turns: int = 1):
     """Floquet multipliers and the resonance flag.
 
-    Only the eigenvalues of Φ are computed (LAPACK's problem costs half without the
-    vectors: 0.27 against 0.53 s per 500 monodromies of order 60); where a multiplier is near
-    1, :func:`resonant` finds the vectors of those few by inverse iteration.
+    Only the eigenvalues are computed (LAPACK's problem costs half without the vectors: 0.27
+    against 0.53 s per 500 monodromies of order 60); where a multiplier is near 1,
+    :func:`resonant` finds the vectors of those few by inverse iteration. Where Φ's first
+    ``period.spanning`` columns span its range to round-off (:func:`range_reduction`: the
+    (q, h v) columns of the Newmark family, Φ of rank 2n), both are solved on the reduced
+    Φ_r = QᵀΦQ of order 2n instead of Φ (its other n multipliers are 0 to round-off): the
+    same nonzero multipliers to round-off at half the cost (order 72 against 108, 47 against
+    98 ms per batch of ``benchmarks/six_bar_cost.py``, QR and products included).
 
     Parameters
     ----------
@@ -166,12 +183,70 @@ def floquet(period: Monodromy, ny: int, turns: int = 1):
     Returns
     -------
     multipliers : (case, 3 ny) complex
-        The eigenvalues of Φ.
+        The eigenvalues of Φ (those of Φ_r, then zeros, for a reduced case).
     resonant : (case,) bool
         :func:`resonant`.
     """
-    multipliers = np.linalg.eigvals(period.Phi)
-    return multipliers, resonant(multipliers, period.Phi, period.p, ny, RESONANCE_GAP * turns)
+    Phi = period.Phi
+    reduction = range_reduction(Phi, period.spanning) if period.spanning else None
+    multipliers = np.zeros(Phi.shape[:-1], complex)
+    full = np.ones(len(Phi), bool) if reduction is None else ~reduction.ok
+    if full.any():
+        multipliers[full] = np.linalg.eigvals(Phi[full])
+    if not full.all():
+        multipliers[~full, :period.spanning] = np.linalg.eigvals(reduction.reduced[~full])
+    return multipliers, resonant(multipliers, Phi, period.p, ny, RESONANCE_GAP * turns,
+                                 reduction)
+
+
+class RangeReduction(NamedTuple):
+    """Φ on its range (:func:`range_reduction`): Φ = Q C to round-off where ``ok``.
+
+    ``ok`` (case,) bool, ``basis`` Q (case, 3n, k) orthonormal, ``image`` C = QᵀΦ
+    (case, k, 3n), ``reduced`` Φ_r = C Q (case, k, k)."""
+
+    ok: np.ndarray
+    basis: np.ndarray
+    image: np.ndarray
+    reduced: np.ndarray
+
+
+#: Largest ‖Φ − QQᵀΦ‖_F / ‖Φ‖_F for which Φ is taken on the range of its first columns: a few
+#: dozen round-offs (4–8e-16 measured on the monodromies of benchmarks/six_bar_cost.py), of
+#: the order of the eigensolver's own backward error and far below any difference the flags
+#: read.
+RANGE_TOLERANCE = 1e-14
+
+
+def range_reduction(Phi: np.ndarray, k: int) -> RangeReduction:
+    """Φ on the range of its first ``k`` columns: Q from their QR, C = QᵀΦ, Φ_r = C Q.
+
+    Where Φ = Q C to round-off (:data:`RANGE_TOLERANCE`) — its other columns lie in that
+    range, as the acceleration columns of the Newmark family's monodromy do — the nonzero
+    eigenvalues of Φ are those of Φ_r (Φ = QC and CQ share them), and with z an eigenvector of
+    Φ_r for μ ≠ 0 and w its left one, Q z is Φ's right eigenvector and Cᵀw/μ̄ its left one.
+
+    Parameters
+    ----------
+    Phi : numpy.ndarray
+        Monodromy matrices, shape (case, m, m).
+    k : int
+        Leading columns taken for the range (k < m).
+
+    Returns
+    -------
+    RangeReduction
+    """
+    # A case that is not finite (a diverged march) fails the check quietly: the full
+    # eigenproblem then says so as before.
+    with np.errstate(invalid="ignore", over="ignore"):
+        Q = np.linalg.qr(Phi[..., :k])[0]
+        C = np.swapaxes(Q, -1, -2) @ Phi
+        # The first k columns are Q C's to the QR's round-off: only the others are checked (a
+        # third of the product).
+        residual = np.linalg.norm(Phi[..., k:] - Q @ C[..., k:], axis=(-2, -1))
+        ok = residual <= RANGE_TOLERANCE * np.linalg.norm(Phi, axis=(-2, -1))
+        return RangeReduction(ok, Q, C, C @ Q)
 
 
 def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period: int, ny: int,
@@ -204,7 +279,7 @@ def shoot(scheme: Integrator, marcher: Marcher, h: np.ndarray, steps_per_period:
 
 
 def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
-             gap: float = RESONANCE_GAP) -> np.ndarray:
+             gap: float = RESONANCE_GAP, reduction: RangeReduction | None = None) -> np.ndarray:
     """(case,) bool: near-resonant Floquet modes dominate the periodic displacement.
 
     With Φ = V diag(μ) V⁻¹ the periodic state is Σ_i V_i c_i/(1 − μ_i), c = V⁻¹p; the share of
@@ -215,7 +290,9 @@ def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
     eigenvectors, monodromies of order 108 of ``benchmarks/six_bar_cost.py``), and the whole
     state is (I − Φ)⁻¹p. Where that is unreliable (another multiplier within
     :data:`_CLUSTER` of a near one, an eigenvalue too ill-conditioned, the iteration not
-    settling) the case falls back to the eigenvectors of Φ, as do exact resonances.
+    settling) the case falls back to the eigenvectors of Φ, as do exact resonances. A case
+    of ``reduction`` (:func:`range_reduction`, ``ok``) is solved on Φ_r instead, the same
+    terms to round-off (:func:`_near_share`).
 
     Parameters
     ----------
@@ -231,6 +308,8 @@ def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
     gap : float, optional
         |1 − μ| below which a multiplier is near resonance (:data:`RESONANCE_GAP` per input
         turn of the period).
+    reduction : RangeReduction, optional
+        Φ on its range (its multipliers the first k of ``mu``).
 
     Returns
     -------
@@ -239,7 +318,12 @@ def resonant(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
     """
     flagged = np.zeros(mu.shape[0], bool)
     for c in np.flatnonzero((np.abs(1.0 - mu) < gap).any(axis=-1)):
-        share = _near_share(mu[c], Phi[c], p[c], ny, gap)
+        if reduction is not None and reduction.ok[c]:
+            k = reduction.reduced.shape[-1]
+            share = _near_share(mu[c, :k], reduction.reduced[c], reduction.image[c] @ p[c],
+                                ny, gap, reduction.basis[c], p[c])
+        else:
+            share = _near_share(mu[c], Phi[c], p[c], ny, gap)
         if share is None:
             share = _near_share_by_eig(Phi[c], p[c], ny, gap)
         flagged[c] = share > RESONANCE_SHARE
@@ -256,9 +340,15 @@ _START: dict[int, np.ndarray] = {}
 
 
 def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
-                gap: float) -> float | None:
+                gap: float, basis: np.ndarray | None = None,
+                forced: np.ndarray | None = None) -> float | None:
     """The near-1 modes' share (within ``gap``) of the periodic displacement of one case by
-    inverse iteration (:func:`resonant`), or None where it cannot be trusted."""
+    inverse iteration (:func:`resonant`), or None where it cannot be trusted.
+
+    With ``basis`` Q (3n, k) the problem is Φ = QC on its range (:func:`range_reduction`):
+    ``Phi`` is Φ_r = CQ, ``p`` is C p₀ and ``forced`` p₀ the forced part. Φ's eigenvectors are
+    then Q z and Cᵀw/μ̄ (z, w Φ_r's), so that a near mode's term is Qz (wᴴCp₀)/μ/(wᴴz)/(1 − μ),
+    and the periodic state (I − QC)⁻¹p₀ = p₀ + Q (I − Φ_r)⁻¹ C p₀."""
     near = np.flatnonzero(np.abs(1.0 - mu) < gap)
     if np.any(mu[near] == 1.0):
         return None  # exact resonance
@@ -268,9 +358,12 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
         return None
     r = Phi.shape[0]
     try:
-        total = np.linalg.norm(np.linalg.solve(np.eye(r) - Phi, p)[:ny])
+        periodic = np.linalg.solve(np.eye(r) - Phi, p)
     except np.linalg.LinAlgError:
         return None
+    if basis is not None:
+        periodic = forced + basis @ periodic
+    total = np.linalg.norm(periodic[:ny])
     start = _START[r] if r in _START else _START.setdefault(
         r, np.random.default_rng(0).standard_normal(r) + 0.0j)  # fixed: deterministic
     part = np.zeros(ny, complex)
@@ -290,7 +383,10 @@ def _near_share(mu: np.ndarray, Phi: np.ndarray, p: np.ndarray, ny: int,
         overlap = np.vdot(w, v)  # w unit, v unit: 1/|overlap| is μ_i's condition number
         if abs(overlap) < 1e-10:
             return None
-        term = v[:ny] * (np.vdot(w, p) / overlap / (1.0 - mu[i]))
+        if basis is None:
+            term = v[:ny] * (np.vdot(w, p) / overlap / (1.0 - mu[i]))
+        else:
+            term = (basis[:ny] @ v) * (np.vdot(w, p) / mu[i] / overlap / (1.0 - mu[i]))
         part += term if weight == 1.0 else 2.0 * term.real
     return float(np.linalg.norm(part) / max(total, 1e-300))
 

@@ -8,9 +8,11 @@ from hypothesis import strategies as st
 from ced.response.integrators import newmark as average_acceleration
 from ced.response.marching import Marcher
 from ced.response.period_terms import PeriodTerms
+from ced.response.integrators import generalized_alpha, hht, make_integrator
 from ced.response.periodic import (COND_LIMIT, INSTABILITY_MARGIN, RESONANCE_GAP,
                                    RESONANCE_SHARE, Monodromy, _near_share, _near_share_by_eig,
-                                   _regular, floquet, monodromy, periodic_state, resonant, shoot)
+                                   _regular, floquet, monodromy, periodic_state,
+                                   range_reduction, resonant, shoot)
 
 
 def one_dof_period(stiffness, force, h, steps):
@@ -91,13 +93,14 @@ def test_periodic_state_of_some_cases_is_theirs_alone_and_the_multipliers_are_ph
     assert not resonant.any()
 
 
-def _real_monodromy(rng, near: list[complex], others: int):
-    """A real Φ = V B V⁻¹ with the multipliers ``near`` (and their conjugates) and ``others``
-    random pairs inside the unit disc: B is block diagonal (2×2 rotations for the pairs), V
-    well conditioned (cond ≤ e²). Returns Φ and the exact share of the ``near`` blocks in the
-    displacement part (first 4 rows) of (I − Φ)⁻¹p for the returned p."""
-    multipliers = list(near) + [0.9 * rng.uniform(0.1, 1.0) * np.exp(1j * rng.uniform(0.2, 3.0))
-                                for _ in range(others)]
+def _real_monodromy(rng, near: list[complex], others: int, zeros: int = 0):
+    """A real Φ = V B V⁻¹ with the multipliers ``near`` (and their conjugates), ``others``
+    random pairs inside the unit disc and ``zeros`` zero multipliers (Φ of rank r − zeros): B
+    is block diagonal (2×2 rotations for the pairs), V well conditioned (cond ≤ e²). Returns Φ
+    and the exact share of the ``near`` blocks in the displacement part (first 4 rows) of
+    (I − Φ)⁻¹p for the returned p."""
+    multipliers = (list(near) + [0.9 * rng.uniform(0.1, 1.0) * np.exp(1j * rng.uniform(0.2, 3.0))
+                                 for _ in range(others)] + [complex(0.0, 0.0)] * zeros)
     sizes = [1 if m.imag == 0.0 else 2 for m in multipliers]
     r = sum(sizes)
     B = np.zeros((r, r))
@@ -181,3 +184,83 @@ def test_the_resonance_gap_is_per_input_turn():
     period = Monodromy(p[None], Phi[None], np.ones((1, len(p))))
     assert not floquet(period, 4)[1][0]
     assert floquet(period, 4, turns=2)[1][0]
+
+
+def _mathieu_chain_period(scheme, steps=256, n=3, cases=2):
+    """The monodromy of n coupled Mathieu oscillators q̈ + K(t) q = f(t), K(t) = K₀ + ε cos t
+    K₁ (case c detuned by c/10), over one period 2π in ``steps`` steps."""
+    h = np.full(cases, 2 * np.pi / steps)
+    t = np.arange(steps) * h[0]
+    K0 = np.diag(np.arange(1.0, n + 1.0) ** 2 * 0.7) + 0.1 * (np.eye(n, k=1) + np.eye(n, k=-1))
+    K1 = np.ones((n, n)) / n
+    stiffness = np.stack([K0 * (1.0 + 0.1 * c) + 0.3 * np.cos(t)[:, None, None] * K1
+                          for c in range(cases)])
+    force = np.broadcast_to((np.cos(t)[:, None] * np.arange(1.0, n + 1.0))[None],
+                            (cases, steps, n)).copy()
+    terms = PeriodTerms(mass=np.broadcast_to(np.eye(n), (cases, steps, n, n)).copy(),
+                        damping=None, stiffness=stiffness, force=force,
+                        projection=np.zeros((cases, steps, n, n)), samples=steps,
+                        interpolation_error=np.zeros(cases))
+    return monodromy(scheme, Marcher(scheme, terms, h, True), h, steps, n, cases)
+
+
+@pytest.mark.parametrize("scheme", [average_acceleration(), hht(-0.1), generalized_alpha(0.9)],
+                         ids=["newmark", "hht", "generalized_alpha"])
+def test_floquet_on_the_range_of_the_newmark_family_monodromy_is_the_full_eigenproblem(scheme):
+    # One period of the Newmark family leaves the acceleration a function of (q, v): Φ has
+    # rank 2n, spanned by its (q, h v) columns, and the multipliers found on that range are
+    # Φ's nonzero ones (its other n are 0), to round-off; the resonance flag is the same.
+    period = _mathieu_chain_period(scheme)
+    n = 3
+    assert period.spanning == 2 * n
+    reduction = range_reduction(period.Phi, period.spanning)
+    assert reduction.ok.all()
+    mu, flagged = floquet(period, n)
+    full_mu, full_flagged = floquet(period._replace(spanning=0), n)
+    assert np.array_equal(flagged, full_flagged)
+    assert np.array_equal(mu[:, 2 * n:], np.zeros((2, n)))
+    for c in range(2):
+        nonzero = np.sort_complex(full_mu[c][np.abs(full_mu[c]) > 1e-8])
+        assert len(nonzero) == 2 * n
+        assert np.allclose(np.sort_complex(mu[c, :2 * n]), nonzero, rtol=0, atol=1e-12)
+    assert np.allclose(np.abs(mu).max(axis=1), np.abs(full_mu).max(axis=1), rtol=1e-13)
+
+
+def test_a_monodromy_its_first_columns_do_not_span_keeps_the_full_eigenproblem():
+    # Houbolt's history state has no such structure (spanning 0), and a full-rank Φ fails the
+    # range check: its multipliers are LAPACK's on Φ itself, bit for bit.
+    rng = np.random.default_rng(5)
+    Phi = rng.standard_normal((3, 9, 9)) / 3.0
+    p = rng.standard_normal((3, 9))
+    assert not range_reduction(Phi, 6).ok.any()
+    mu, _ = floquet(Monodromy(p, Phi, np.ones((3, 9)), 6), 3)
+    assert np.array_equal(mu, np.linalg.eigvals(Phi))
+    houbolt = _mathieu_chain_period(make_integrator("houbolt"))
+    assert houbolt.spanning == 0
+    # A diverged case (not finite) fails the check quietly; the full eigenproblem then
+    # refuses it as it did.
+    Phi[1, 2, 3] = np.inf
+    with np.errstate(all="raise"):
+        assert not range_reduction(Phi, 6).ok.any()
+    with pytest.raises(np.linalg.LinAlgError):
+        floquet(Monodromy(p, Phi, np.ones((3, 9)), 6), 3)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), detuning=st.floats(1e-3, 0.04),
+       angle=st.floats(0.1, 2 * np.pi - 0.1))
+def test_the_near_share_on_the_range_is_the_full_ones(seed, detuning, angle):
+    # A real Φ of rank 8 (12 × 12, four multipliers 0) with a pair near 1: the share of the
+    # pair in the periodic displacement found on Φ's range is the exact one, as the full
+    # problem's is, and so is the flag.
+    rng = np.random.default_rng(seed)
+    Phi, p, exact = _real_monodromy(rng, [1.0 + detuning * np.exp(1j * angle)], 3, zeros=4)
+    reduction = range_reduction(Phi[None], 8)
+    assert reduction.ok[0]
+    mu_r = np.linalg.eigvals(reduction.reduced[0])
+    share = _near_share(mu_r, reduction.reduced[0], reduction.image[0] @ p, 4, RESONANCE_GAP,
+                        reduction.basis[0], p)
+    assert share == pytest.approx(exact, rel=1e-9, abs=1e-12)
+    mu = np.concatenate([mu_r, np.zeros(4)])[None]
+    assert np.array_equal(resonant(mu, Phi[None], p[None], 4, reduction=reduction),
+                          resonant(np.linalg.eigvals(Phi)[None], Phi[None], p[None], 4))
