@@ -1,0 +1,328 @@
+"""ced against an independent multibody code (Exudyn) on a Watt II six-bar (issue 18).
+
+The Watt II of the tests and of ``benchmarks/six_bar_cost.py`` (two four-bars in series
+through the ternary rocker D–C–E), steel bars 10 mm × 5 mm (5 mm in plane), no gravity, two
+revolutions from the undeformed state. Four comparisons:
+
+1. **Rigid.** Every link rigid. The input torque and the magnitude of the force at every
+   joint over the two revolutions, ced's rigid analysis (closed-form dyads, Newton–Euler)
+   against Exudyn's index-3 DAE integration of the same bodies with the crank's rotation
+   prescribed, relative to each history's largest value: the second loop's kinematics, the
+   ternary link's mass, centre and inertia, and the inverse dynamics. The first
+   :data:`START_UP` of a revolution is reported apart: there the peer's generalized-α
+   accelerations (and so its forces) still carry the start-up transient of an index-3
+   integration, which decays with the steps taken (3.5e-3 of the largest torque 32 steps
+   after the start at 4096 steps a revolution, 2e-4 64 steps after it at 8192).
+2. **Natural frequencies** of the linkage frozen at t = 0, at rest, its input held, with the
+   coupler, coupler2 or both flexible: ced's modal analysis (beams, joint coordinates, the
+   ternary rocker carrying E) against the eigenvalues of Exudyn's constrained system.
+3. **Peak strains, lightly damped.** Coupler B→C and coupler2 E→F flexible (the crank, the
+   ternary rocker and rocker2 rigid); stiffness-proportional damping β = :data:`BETA`
+   (Rayleigh βK in ced, Kelvin–Voigt on the cables' strain rates in Exudyn: 0.18 % of
+   critical at the first mode, 57 Hz, 8 % at 2.5 kHz), so that the peak is the low modes'
+   and both codes are converged in time at 8192 steps a revolution. The peak outer-fibre
+   bending strain of each coupler over time and 21 stations: ced's linear KED
+   (Euler–Bernoulli beams in the moving frames) against Exudyn's geometrically exact ANCF
+   cables. The peer's strain at a node is an element's end curvature, which converges more
+   slowly than ced's recovery: it runs :data:`PEER_ELEMENTS` elements.
+4. **Peak strains, undamped**, each code at two time steps. The undeformed start rings in
+   every mode of the couplers; coupler2's 1.5–4 kHz ripple rides on its peak, and where its
+   crest falls moves the peak by a few per cent with the step in both codes: reported, not
+   held to a tolerance.
+
+Both codes start from the same geometry: the peer's model (``exudyn_linkage.py``, run in the
+peer venv) is written from ced's rigid state at t = 0 (joint positions, link angles and the
+rigid velocity field) and ced's body properties; everything after t = 0 each code computes on
+its own. Results go to ``benchmarks/peer_watt_ii.json``; the run fails (exit 1) where the
+rigid results differ by more than :data:`RIGID_TOLERANCE`, a frequency by more than
+:data:`FREQUENCY_TOLERANCE`, or a damped peak strain of a case ced does not flag by more than
+:data:`STRAIN_TOLERANCE`.
+
+Run ``.venv/bin/python benchmarks/peer/watt_ii.py`` (installs the peer on first use; about
+two minutes).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import compare  # noqa: E402  (benchmarks/peer/compare.py: the peer venv)
+
+import ced  # noqa: E402
+from ced.problem.scene import load_scene  # noqa: E402
+from ced.problem.status import status_names  # noqa: E402
+from ced.response.batch import make_batch  # noqa: E402
+
+RESULTS = HERE.parent / "peer_watt_ii.json"
+PEER_SCRIPT = HERE / "exudyn_linkage.py"
+MECHANISM = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+             "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+             "pivot2_x": 0.2, "pivot2_y": -0.3}
+SECTION = {"shape": "rectangle", "height": 0.005, "width": 0.01}
+FLEXIBLE = ("coupler", "coupler2")
+#: Input speeds of the rigid comparison, rad/s.
+RIGID_SPEEDS = (50.0, 90.0)
+RIGID_STEPS = 4096
+#: Input speeds of the damped comparison, rad/s: 20 and 50 below ced's ``large_deflection``
+#: (1 % of a link's length), 90 flagged ``large_deflection`` and ``resonant``.
+DAMPED_SPEEDS = (20.0, 50.0, 90.0)
+#: Stiffness-proportional damping of the damped comparison, s.
+BETA = 1e-5
+#: (elements, steps per revolution) of ced's damped runs (converged: 32 elements or 16,384
+#: steps move its peaks by at most 0.04 %) and the peer's elements.
+CED_DAMPED = (16, 8192)
+PEER_ELEMENTS = 32
+#: Input speeds and (elements, steps per revolution) of the undamped comparison.
+UNDAMPED_SPEEDS = (50.0, 90.0)
+UNDAMPED_SETTINGS = ((16, 8192), (16, 16384))
+#: Frequencies compared per flexible set.
+MODES = 8
+#: Samples of the force histories compared.
+RECORD = 256
+#: Fraction of a revolution after the start whose samples are reported apart (module
+#: docstring).
+START_UP = 1.0 / 16.0
+#: Largest difference of the rigid histories allowed after :data:`START_UP`, relative to each
+#: history's largest value (the peer's generalized-α accelerations at 4096 steps a
+#: revolution, O(h²), and its Newton tolerance).
+RIGID_TOLERANCE = 1e-4
+#: Largest relative difference of a natural frequency allowed (both are 16-element models of
+#: the same beams; ANCF and Hermite elements differ in the higher modes).
+FREQUENCY_TOLERANCE = 1e-3
+#: Largest relative difference of a damped peak coupler strain allowed where ced flags
+#: nothing: geometric nonlinearity (the peer) against the linear KED (ced), which grows with
+#: the deflection that ``large_deflection`` bounds at 1 % of a link's length.
+STRAIN_TOLERANCE = 0.02
+
+
+def scene(speed: float, flexible: tuple = FLEXIBLE, elements: int = 16,
+          steps: int = RIGID_STEPS, beta: float = 0.0) -> dict:
+    """ced's scene: the Watt II at ``speed`` rad/s, ``flexible`` links flexible, Rayleigh
+    damping βK (``beta``, s) where it is not zero."""
+    links = {"default": {"material": "steel", "section": SECTION, "flexible": False},
+             **{name: {"flexible": True} for name in flexible}}
+    damping = {}
+    if beta:
+        damping = {"effects": ["inertia", "elastic_inertia", "coriolis", "centrifugal",
+                               "axial_stiffening", "damping"],
+                   "damping": {"model": "rayleigh", "beta": beta}}
+    return {**damping, "mechanism": MECHANISM, "links": links, "drive": {"speed": float(speed)},
+            "discretization": ({"elements_per_link": elements} if flexible
+                               else {"formulation": "rigid"}),
+            "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "undeformed"},
+            "outputs": {"stations": 21, "error_estimate": False}}
+
+
+def linkage(flexible: tuple = FLEXIBLE, beta: float = 0.0) -> dict:
+    """The peer's description (``exudyn_linkage.py``) from ced's rigid state at t = 0, at
+    unit input speed, and ced's body properties; ``beta`` (s) its links' Kelvin–Voigt
+    damping, Rayleigh's βK."""
+    normalized = load_scene(scene(1.0, flexible))
+    batch = make_batch([normalized])
+    motion = batch.rigid_motion(np.zeros((1, 1)))
+    topology = batch.topology
+    joint_names = list(topology.joint_names)
+    position = motion.joint_position[0, 0]
+    velocity = motion.joint_velocity[0, 0] / batch.speed[0]
+    material = normalized["links"]["crank"]["material"]
+    section = normalized["links"]["crank"]["section"]
+    out = {"input": topology.input_link, "material": {"E": material["E"], "rho": material["rho"]},
+           "section": {"area": section["area"], "second_moment": section["second_moment"],
+                       "height": section["height"]},
+           "joints": {}, "links": {}, "damping_beta": beta}
+    for j, (first, second) in topology.joints.items():
+        k = joint_names.index(j)
+        out["joints"][j] = {"bodies": [first, second], "position": position[k].tolist(),
+                            "velocity": velocity[k].tolist()}
+    bodies = batch.bodies
+    for i, (name, (P, Q)) in enumerate(topology.links.items()):
+        theta = float(motion.link_angle[0, 0, i])
+        c, s = np.cos(theta), np.sin(theta)
+        to_link = np.array([[c, s], [-s, c]])
+        on_link = [j for j, pair in topology.joints.items() if name in pair]
+        points = {j: (to_link @ (position[joint_names.index(j)]
+                                 - position[joint_names.index(P)])).tolist() for j in on_link}
+        out["links"][name] = {
+            "joints": [P, Q], "flexible": name in flexible,
+            "length": float(batch.link_lengths[0, i]), "angle": theta,
+            "angular_velocity": float(motion.link_angular_velocity[0, 0, i] / batch.speed[0]),
+            "mass": float(bodies.mass[0, i]), "inertia": float(bodies.inertia[0, i]),
+            "centre": bodies.centre[0, i].tolist(), "points": points}
+    return out
+
+
+def run_peer(description: dict, elements: int, steps: int, speeds, timeout: float = 1800.0
+             ) -> dict:
+    """The peer's results (``exudyn_linkage.py``'s JSON) for ``description``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "linkage.json"
+        path.write_text(json.dumps(description))
+        cmd = [str(compare.PEER_PYTHON), str(PEER_SCRIPT), str(path), "--elements",
+               str(elements), "--steps", str(steps), "--record", str(RECORD), "--speeds",
+               *map(str, speeds)]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    if done.returncode:
+        raise RuntimeError(f"peer failed ({done.returncode}): {done.stderr[-2000:]}")
+    return json.loads(done.stdout)
+
+
+def rigid_check(speeds=RIGID_SPEEDS) -> dict:
+    """Input torque and joint force magnitudes, ced against the peer, every link rigid."""
+    peer = run_peer(linkage(()), 1, RIGID_STEPS, speeds)
+    ds = ced.simulate([scene(w, ()) for w in speeds])
+    names = [str(j) for j in ds["joint"].values]
+    rows = []
+    for i, case in enumerate(peer["cases"]):
+        t = np.asarray(case["time"])
+        h = float(ds["time"][i, 1])
+        steps = np.rint(t / h).astype(int)
+        assert np.allclose(steps * h, t, rtol=0, atol=1e-9 * t[-1]), "peer samples off ced's steps"
+        settled = t >= START_UP * 2.0 * np.pi / case["speed"]
+        row = {"speed": case["speed"], "samples": len(t)}
+
+        def difference(mine, theirs):
+            scale = np.abs(mine).max()
+            d = np.abs(mine - theirs) / scale
+            return {"max_ced": float(scale), "relative_difference": float(d[settled].max()),
+                    "median": float(np.median(d)), "start_up": float(d[~settled].max())}
+
+        torque = np.asarray(ds["input_torque"][i, steps])
+        theirs = np.asarray(case["input_torque"])
+        # The peer's multiplier is the generalized force of the crank's angle constraint, ced's
+        # the drive's torque on the crank: the same up to the sign of the convention.
+        sign = 1.0 if np.dot(torque, theirs) >= 0 else -1.0
+        row["input_torque"] = {"sign": sign, **difference(torque, sign * theirs)}
+        force = np.hypot(*np.moveaxis(np.asarray(ds["joint_force"][i, steps]), -1, 0))
+        row["joint_force"] = {j: difference(force[:, names.index(j)], np.asarray(magnitude))
+                              for j, magnitude in case["joint_force_magnitude"].items()}
+        row["worst"] = max([row["input_torque"]["relative_difference"]]
+                           + [v["relative_difference"] for v in row["joint_force"].values()])
+        rows.append(row)
+    return {"steps_per_revolution": RIGID_STEPS, "cases": rows,
+            "worst": max(r["worst"] for r in rows), "tolerance": RIGID_TOLERANCE}
+
+
+def ced_peaks(speeds, elements: int, steps: int, beta: float = 0.0) -> list[dict]:
+    """ced's peak outer-fibre bending strain of each flexible coupler, where it is, and the
+    case's status."""
+    ds = ced.simulate([scene(w, FLEXIBLE, elements, steps, beta) for w in speeds])
+    links = [str(x) for x in ds["link"].values]
+    out = []
+    for i in range(len(speeds)):
+        peaks = {}
+        for name in FLEXIBLE:
+            strain = np.abs(np.asarray(ds["bending_strain"][i, :, links.index(name)]))
+            it, js = np.unravel_index(np.argmax(strain), strain.shape)
+            peaks[name] = {"value": float(strain.max()), "time": float(ds["time"][i, it]),
+                           "station": float(ds["station"][js])}
+        out.append({"speed": float(speeds[i]), "peak_strain": peaks,
+                    "status": int(ds["status"][i])})
+    return out
+
+
+def frequency_check() -> dict:
+    """The :data:`MODES` lowest natural frequencies of the frozen linkage (t = 0, at rest),
+    ced against the peer, for the coupler, coupler2 and both flexible."""
+    rows = []
+    for flexible in (("coupler",), ("coupler2",), FLEXIBLE):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "linkage.json"
+            path.write_text(json.dumps(linkage(flexible)))
+            done = subprocess.run([str(compare.PEER_PYTHON), str(PEER_SCRIPT), str(path),
+                                   "--elements", "16", "--frequencies", str(MODES)],
+                                  capture_output=True, text=True, timeout=900)
+        if done.returncode:
+            raise RuntimeError(f"peer failed ({done.returncode}): {done.stderr[-2000:]}")
+        theirs = np.array(json.loads(done.stdout)["frequencies"])
+        frozen = scene(1e-6, flexible, 16, 256)  # at rest: no centrifugal or axial load
+        frozen["modal"] = {"modes": MODES, "angles": 4}
+        mine = ced.simulate(frozen)["natural_frequency"].values[0, 0]  # modal angle 0
+        rows.append({"flexible": list(flexible), "ced_hz": mine.tolist(),
+                     "peer_hz": theirs.tolist(),
+                     "worst": float(np.abs(mine / theirs - 1.0).max())})
+    return {"elements": 16, "cases": rows, "worst": max(r["worst"] for r in rows),
+            "tolerance": FREQUENCY_TOLERANCE}
+
+
+def damped_check(speeds=DAMPED_SPEEDS) -> dict:
+    """Peak strain of each coupler, lightly damped, ced against the peer."""
+    elements, steps = CED_DAMPED
+    mine = ced_peaks(speeds, elements, steps, BETA)
+    theirs = run_peer(linkage(FLEXIBLE, BETA), PEER_ELEMENTS, steps, speeds)["cases"]
+    rows = []
+    for a, b in zip(mine, theirs):
+        row = {"speed": a["speed"], "status_ced": a["status"],
+               "flags_ced": status_names(a["status"])}
+        for name in FLEXIBLE:
+            x, y = a["peak_strain"][name], b["peak_strain"][name]
+            row[name] = {"ced": x, "peer": y,
+                         "ced_over_peer_minus_1": x["value"] / y["value"] - 1.0}
+        rows.append(row)
+    held = [abs(r[n]["ced_over_peer_minus_1"]) for r in rows if r["status_ced"] == 0
+            for n in FLEXIBLE]
+    return {"beta": BETA, "ced_setting": list(CED_DAMPED),
+            "peer_setting": [PEER_ELEMENTS, steps], "cases": rows,
+            "worst_unflagged": max(held) if held else None, "tolerance": STRAIN_TOLERANCE}
+
+
+def undamped_check(speeds=UNDAMPED_SPEEDS) -> dict:
+    """Peak strain of each coupler, undamped, ced against the peer, each at two steps."""
+    description = linkage(FLEXIBLE)
+    runs = {"ced": {}, "peer": {}}
+    for elements, steps in UNDAMPED_SETTINGS:
+        key = f"{elements}/{steps}"
+        runs["ced"][key] = ced_peaks(speeds, elements, steps)
+        runs["peer"][key] = run_peer(description, elements, steps, speeds)["cases"]
+    rows = []
+    for i, w in enumerate(speeds):
+        row = {"speed": w, "flags_ced": status_names(runs["ced"][key][i]["status"])}
+        for name in FLEXIBLE:
+            row[name] = {setting: {code: runs[code][setting][i]["peak_strain"][name]["value"]
+                                   for code in runs} for setting in runs["ced"]}
+        rows.append(row)
+    return {"settings": [list(s) for s in UNDAMPED_SETTINGS], "cases": rows}
+
+
+def main(argv=None) -> int:
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args(argv)
+    version = compare.setup_peer()
+    started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    rigid = rigid_check()
+    print(f"rigid: largest relative difference {rigid['worst']:.2e}", flush=True)
+    frequencies = frequency_check()
+    print(f"frequencies: largest relative difference {frequencies['worst']:.2e}", flush=True)
+    damped = damped_check()
+    for row in damped["cases"]:
+        print(f"damped {row['speed']:5.1f} rad/s {','.join(row['flags_ced']) or 'ok'}: "
+              + ", ".join(f"{n} {100 * row[n]['ced_over_peer_minus_1']:+.2f} %"
+                          for n in FLEXIBLE), flush=True)
+    undamped = undamped_check()
+    out = {"what": __doc__.split("\n")[0],
+           "command": ".venv/bin/python benchmarks/peer/watt_ii.py", "started": started,
+           "exudyn": version, "python": platform.python_version(),
+           "mechanism": MECHANISM, "section": SECTION, "rigid": rigid,
+           "frequencies": frequencies, "damped": damped, "undamped": undamped}
+    RESULTS.write_text(json.dumps(out, indent=1) + "\n")
+    ok = (rigid["worst"] <= RIGID_TOLERANCE and frequencies["worst"] <= FREQUENCY_TOLERANCE
+          and damped["worst_unflagged"] is not None
+          and damped["worst_unflagged"] <= STRAIN_TOLERANCE)
+    print(f"{'agree' if ok else 'DISAGREE'}: rigid {rigid['worst']:.1e} (<= {RIGID_TOLERANCE}), "
+          f"frequencies {frequencies['worst']:.1e} (<= {FREQUENCY_TOLERANCE}), damped peak "
+          f"strains {100 * damped['worst_unflagged']:.2f} % (<= {100 * STRAIN_TOLERANCE:.0f} %) "
+          "where ced flags nothing")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
