@@ -49,7 +49,7 @@ bench: $(STAMP) bench-memory
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/estimate_check.py --cores $(CORES)
 	$(BIN)/python benchmarks/six_bar_cost.py
-	$(BIN)/python benchmarks/peer/six_bars.py
+	$(BIN)/python benchmarks/peer/linkages.py
 	$(BIN)/python benchmarks/estimate_honesty.py
 	$(BIN)/python benchmarks/study_estimate_check.py
 	$(BIN)/python benchmarks/auto_pilots.py

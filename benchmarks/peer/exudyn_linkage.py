@@ -1,7 +1,7 @@
 """A planar linkage of rigid bodies and flexible links in Exudyn: the peer of a ced linkage.
 
 Runs inside the peer venv (``benchmarks/peer/setup_peer.sh``); it does not import ced. The
-linkage comes as JSON (written by ``benchmarks/peer/six_bars.py`` from ced's description of
+linkage comes as JSON (written by ``benchmarks/peer/linkages.py`` from ced's description of
 the mechanism, so that both codes start from the same geometry):
 
 - ``links``: per link its two end joints ``[P, Q]``, whether it is ``flexible``, its length,

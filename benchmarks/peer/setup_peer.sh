@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Create the peer venv (benchmarks/.peer-venv, gitignored) and install Exudyn from PyPI into it
-# (with scipy, which its eigenvalue solver needs: benchmarks/peer/six_bars.py).
+# (with scipy, which its eigenvalue solver needs: benchmarks/peer/linkages.py).
 # Exudyn is not a dependency of ced: it lives only in this venv. Fails loudly (exit 1) if the
 # install or the import fails. Usage: bash benchmarks/peer/setup_peer.sh [python3]
 set -euo pipefail

@@ -1,9 +1,11 @@
-"""ced against an independent multibody code (Exudyn) on the six-bars (issue 18).
+"""ced against an independent multibody code (Exudyn) on the reference four-bar and the
+six-bars (issue 18).
 
-The Watt II and the Stephenson III of the tests (:data:`SIX_BARS`: two four-bars in series
-through the ternary rocker D–C–E; a dyad driven from the point E of the ternary coupler
-B–C–E), steel bars 10 mm × 5 mm (5 mm in plane), no gravity, two revolutions from the
-undeformed state. Four comparisons for each:
+The reference four-bar of the peer benchmark (``benchmarks/peer/compare.py``, flexible
+coupler), the Watt II and the Stephenson III of the tests (:data:`LINKAGES`: two four-bars in
+series through the ternary rocker D–C–E; a dyad driven from the point E of the ternary
+coupler B–C–E), steel bars 10 mm × 5 mm (5 mm in plane), no gravity, two revolutions from
+the undeformed state. Four comparisons for each:
 
 1. **Rigid.** Every link rigid. The input torque and the magnitude of the force at every
    joint over the two revolutions, ced's rigid analysis (closed-form dyads, Newton–Euler)
@@ -16,11 +18,12 @@ undeformed state. Four comparisons for each:
    steps after the start at 4096 steps a revolution; the Watt II's 2e-4 64 steps after it
    at 8192).
 2. **Natural frequencies** of the linkage frozen at t = 0, at rest, its input held, with each
-   of its two flexible links alone and both flexible: ced's modal analysis (beams, joint
-   coordinates, the ternary link carrying E) against the eigenvalues of Exudyn's constrained
+   of its flexible links alone and all of them flexible: ced's modal analysis (beams, joint
+   coordinates, a ternary link carrying E) against the eigenvalues of Exudyn's constrained
    system.
-3. **Peak strains, lightly damped.** Two binary links flexible (the Watt II's coupler B→C and
-   coupler2 E→F, the Stephenson III's rocker D→C and coupler2 E→F), the others rigid;
+3. **Peak strains, lightly damped.** The four-bar's coupler flexible; two binary links of a
+   six-bar (the Watt II's coupler B→C and coupler2 E→F, the Stephenson III's rocker D→C and
+   coupler2 E→F); the others rigid;
    stiffness-proportional damping β = :data:`BETA`
    (Rayleigh βK in ced, Kelvin–Voigt on the cables' strain rates in Exudyn: 0.18 % of
    critical at the first mode, 57 Hz, 8 % at 2.5 kHz), so that the peak is the low modes'
@@ -32,18 +35,19 @@ undeformed state. Four comparisons for each:
 4. **Peak strains, undamped**, each code at two time steps. The undeformed start rings in
    every mode of the links; the Watt II's coupler2 carries a 1.5–4 kHz ripple on its peak,
    and where its crest falls moves the peak by a few per cent with the step in both codes:
-   reported, not held to a tolerance.
+   reported, not held to a tolerance. (The four-bar's undamped sweep is the peer benchmark's
+   problem: every speed of it, 90–110 rad/s, is flagged ``large_deflection`` by ced.)
 
 Both codes start from the same geometry: the peer's model (``exudyn_linkage.py``, run in the
 peer venv) is written from ced's rigid state at t = 0 (joint positions, link angles and the
 rigid velocity field) and ced's body properties; everything after t = 0 each code computes on
-its own. Results go to ``benchmarks/peer_six_bars.json``; the run fails (exit 1) where the
+its own. Results go to ``benchmarks/peer_linkages.json``; the run fails (exit 1) where the
 rigid results differ by more than :data:`RIGID_TOLERANCE`, a frequency by more than
 :data:`FREQUENCY_TOLERANCE`, or a damped peak strain of a case ced does not flag by more than
 :data:`STRAIN_TOLERANCE`.
 
-Run ``.venv/bin/python benchmarks/peer/six_bars.py`` (installs the peer on first use; about
-four minutes).
+Run ``.venv/bin/python benchmarks/peer/linkages.py`` (installs the peer on first use; about
+six minutes).
 """
 from __future__ import annotations
 
@@ -69,44 +73,49 @@ from ced.problem.scene import load_scene  # noqa: E402
 from ced.problem.status import status_names  # noqa: E402
 from ced.response.batch import make_batch  # noqa: E402
 
-RESULTS = HERE.parent / "peer_six_bars.json"
+RESULTS = HERE.parent / "peer_linkages.json"
 PEER_SCRIPT = HERE / "exudyn_linkage.py"
 
 
-class SixBar(NamedTuple):
-    """A six-bar of the comparison: its mechanism block and its two flexible links."""
+class Linkage(NamedTuple):
+    """A linkage of the comparison: its mechanism block, its flexible links and the input
+    speeds (rad/s) of its damped and undamped runs."""
 
     mechanism: dict
     flexible: tuple
+    damped_speeds: tuple
+    undamped_speeds: tuple
 
 
-SIX_BARS = {
-    "watt_ii": SixBar({"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
-                       "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5,
-                       "coupler2": 0.4, "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3},
-                      ("coupler", "coupler2")),
-    "stephenson_iii": SixBar({"type": "stephenson_iii", "ground": 0.5, "crank": 0.1,
-                              "coupler": 0.45, "rocker": 0.35, "coupler_arm": 0.3,
-                              "coupler_arm_angle": 0.6, "coupler2": 0.4, "rocker2": 0.3,
-                              "pivot2_x": 0.4, "pivot2_y": 0.55},
-                             ("rocker", "coupler2")),
+#: The damped runs' speeds: two below ced's ``large_deflection`` (1 % of a link's length),
+#: the others flagged (the four-bar at 90–110 rad/s ``large_deflection``, at 90 also
+#: ``resonant``; the Watt II at 90 ``large_deflection`` and ``resonant``, the Stephenson III
+#: ``large_deflection``).
+LINKAGES = {
+    "four_bar": Linkage({"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                         "rocker": 0.35}, ("coupler",), (20.0, 50.0, 90.0, 110.0),
+                        (90.0, 110.0)),
+    "watt_ii": Linkage({"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                        "rocker": 0.35, "rocker_arm": 0.25, "rocker_arm_angle": 2.5,
+                        "coupler2": 0.4, "rocker2": 0.3, "pivot2_x": 0.2, "pivot2_y": -0.3},
+                       ("coupler", "coupler2"), (20.0, 50.0, 90.0), (50.0, 90.0)),
+    "stephenson_iii": Linkage({"type": "stephenson_iii", "ground": 0.5, "crank": 0.1,
+                               "coupler": 0.45, "rocker": 0.35, "coupler_arm": 0.3,
+                               "coupler_arm_angle": 0.6, "coupler2": 0.4, "rocker2": 0.3,
+                               "pivot2_x": 0.4, "pivot2_y": 0.55},
+                              ("rocker", "coupler2"), (20.0, 50.0, 90.0), (50.0, 90.0)),
 }
 SECTION = {"shape": "rectangle", "height": 0.005, "width": 0.01}
 #: Input speeds of the rigid comparison, rad/s.
 RIGID_SPEEDS = (50.0, 90.0)
 RIGID_STEPS = 4096
-#: Input speeds of the damped comparison, rad/s: 20 and 50 below ced's ``large_deflection``
-#: (1 % of a link's length), 90 flagged (the Watt II ``large_deflection`` and ``resonant``,
-#: the Stephenson III ``large_deflection``).
-DAMPED_SPEEDS = (20.0, 50.0, 90.0)
 #: Stiffness-proportional damping of the damped comparison, s.
 BETA = 1e-5
 #: (elements, steps per revolution) of ced's damped runs (converged: 32 elements or 16,384
 #: steps move its peaks by at most 0.04 %) and the peer's elements.
 CED_DAMPED = (16, 8192)
 PEER_ELEMENTS = 32
-#: Input speeds and (elements, steps per revolution) of the undamped comparison.
-UNDAMPED_SPEEDS = (50.0, 90.0)
+#: (elements, steps per revolution) of the undamped comparison.
 UNDAMPED_SETTINGS = ((16, 8192), (16, 16384))
 #: Frequencies compared per flexible set.
 MODES = 8
@@ -180,7 +189,9 @@ def linkage(mechanism: dict, flexible: tuple, beta: float = 0.0) -> dict:
             "length": float(batch.link_lengths[0, i]), "angle": theta,
             "angular_velocity": float(motion.link_angular_velocity[0, 0, i] / batch.speed[0]),
             "mass": float(bodies.mass[0, i]), "inertia": float(bodies.inertia[0, i]),
-            "centre": bodies.centre[0, i].tolist(), "points": points}
+            "centre": ([0.5 * float(batch.link_lengths[0, i]), 0.0] if bodies.centre is None
+                       else bodies.centre[0, i].tolist()),  # None: every link a uniform bar
+            "points": points}
     return out
 
 
@@ -199,10 +210,10 @@ def run_peer(description: dict, elements: int, steps: int, speeds, timeout: floa
     return json.loads(done.stdout)
 
 
-def rigid_check(six: SixBar, speeds=RIGID_SPEEDS) -> dict:
+def rigid_check(link: Linkage, speeds=RIGID_SPEEDS) -> dict:
     """Input torque and joint force magnitudes, ced against the peer, every link rigid."""
-    peer = run_peer(linkage(six.mechanism, ()), 1, RIGID_STEPS, speeds)
-    ds = ced.simulate([scene(six.mechanism, w, ()) for w in speeds])
+    peer = run_peer(linkage(link.mechanism, ()), 1, RIGID_STEPS, speeds)
+    ds = ced.simulate([scene(link.mechanism, w, ()) for w in speeds])
     names = [str(j) for j in ds["joint"].values]
     rows = []
     for i, case in enumerate(peer["cases"]):
@@ -235,16 +246,16 @@ def rigid_check(six: SixBar, speeds=RIGID_SPEEDS) -> dict:
             "worst": max(r["worst"] for r in rows), "tolerance": RIGID_TOLERANCE}
 
 
-def ced_peaks(six: SixBar, speeds, elements: int, steps: int, beta: float = 0.0) -> list[dict]:
+def ced_peaks(link: Linkage, speeds, elements: int, steps: int, beta: float = 0.0) -> list[dict]:
     """ced's peak outer-fibre bending strain of each flexible link, where it is, and the
     case's status."""
-    ds = ced.simulate([scene(six.mechanism, w, six.flexible, elements, steps, beta)
+    ds = ced.simulate([scene(link.mechanism, w, link.flexible, elements, steps, beta)
                        for w in speeds])
     links = [str(x) for x in ds["link"].values]
     out = []
     for i in range(len(speeds)):
         peaks = {}
-        for name in six.flexible:
+        for name in link.flexible:
             strain = np.abs(np.asarray(ds["bending_strain"][i, :, links.index(name)]))
             it, js = np.unravel_index(np.argmax(strain), strain.shape)
             peaks[name] = {"value": float(strain.max()), "time": float(ds["time"][i, it]),
@@ -254,21 +265,21 @@ def ced_peaks(six: SixBar, speeds, elements: int, steps: int, beta: float = 0.0)
     return out
 
 
-def frequency_check(six: SixBar) -> dict:
+def frequency_check(link: Linkage) -> dict:
     """The :data:`MODES` lowest natural frequencies of the frozen linkage (t = 0, at rest),
     ced against the peer, with each flexible link alone and both flexible."""
     rows = []
-    for flexible in [(name,) for name in six.flexible] + [six.flexible]:
+    for flexible in dict.fromkeys([(name,) for name in link.flexible] + [link.flexible]):
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "linkage.json"
-            path.write_text(json.dumps(linkage(six.mechanism, flexible)))
+            path.write_text(json.dumps(linkage(link.mechanism, flexible)))
             done = subprocess.run([str(compare.PEER_PYTHON), str(PEER_SCRIPT), str(path),
                                    "--elements", "16", "--frequencies", str(MODES)],
                                   capture_output=True, text=True, timeout=900)
         if done.returncode:
             raise RuntimeError(f"peer failed ({done.returncode}): {done.stderr[-2000:]}")
         theirs = np.array(json.loads(done.stdout)["frequencies"])
-        frozen = scene(six.mechanism, 1e-6, flexible, 16, 256)  # at rest: no speed effects
+        frozen = scene(link.mechanism, 1e-6, flexible, 16, 256)  # at rest: no speed effects
         frozen["modal"] = {"modes": MODES, "angles": 4}
         mine = ced.simulate(frozen)["natural_frequency"].values[0, 0]  # modal angle 0
         rows.append({"flexible": list(flexible), "ced_hz": mine.tolist(),
@@ -278,65 +289,67 @@ def frequency_check(six: SixBar) -> dict:
             "tolerance": FREQUENCY_TOLERANCE}
 
 
-def damped_check(six: SixBar, speeds=DAMPED_SPEEDS) -> dict:
+def damped_check(link: Linkage) -> dict:
     """Peak strain of each flexible link, lightly damped, ced against the peer."""
     elements, steps = CED_DAMPED
-    mine = ced_peaks(six, speeds, elements, steps, BETA)
-    theirs = run_peer(linkage(six.mechanism, six.flexible, BETA), PEER_ELEMENTS, steps,
+    speeds = link.damped_speeds
+    mine = ced_peaks(link, speeds, elements, steps, BETA)
+    theirs = run_peer(linkage(link.mechanism, link.flexible, BETA), PEER_ELEMENTS, steps,
                       speeds)["cases"]
     rows = []
     for a, b in zip(mine, theirs):
         row = {"speed": a["speed"], "status_ced": a["status"],
                "flags_ced": status_names(a["status"])}
-        for name in six.flexible:
+        for name in link.flexible:
             x, y = a["peak_strain"][name], b["peak_strain"][name]
             row[name] = {"ced": x, "peer": y,
                          "ced_over_peer_minus_1": x["value"] / y["value"] - 1.0}
         rows.append(row)
     held = [abs(r[n]["ced_over_peer_minus_1"]) for r in rows if r["status_ced"] == 0
-            for n in six.flexible]
+            for n in link.flexible]
     return {"beta": BETA, "ced_setting": list(CED_DAMPED),
             "peer_setting": [PEER_ELEMENTS, steps], "cases": rows,
             "worst_unflagged": max(held) if held else None, "tolerance": STRAIN_TOLERANCE}
 
 
-def undamped_check(six: SixBar, speeds=UNDAMPED_SPEEDS) -> dict:
+def undamped_check(link: Linkage) -> dict:
     """Peak strain of each flexible link, undamped, ced against the peer, each at two
     steps."""
-    description = linkage(six.mechanism, six.flexible)
+    description = linkage(link.mechanism, link.flexible)
+    speeds = link.undamped_speeds
     runs = {"ced": {}, "peer": {}}
     for elements, steps in UNDAMPED_SETTINGS:
         key = f"{elements}/{steps}"
-        runs["ced"][key] = ced_peaks(six, speeds, elements, steps)
+        runs["ced"][key] = ced_peaks(link, speeds, elements, steps)
         runs["peer"][key] = run_peer(description, elements, steps, speeds)["cases"]
     rows = []
     for i, w in enumerate(speeds):
         row = {"speed": w, "flags_ced": status_names(runs["ced"][key][i]["status"])}
-        for name in six.flexible:
+        for name in link.flexible:
             row[name] = {setting: {code: runs[code][setting][i]["peak_strain"][name]["value"]
                                    for code in runs} for setting in runs["ced"]}
         rows.append(row)
     return {"settings": [list(s) for s in UNDAMPED_SETTINGS], "cases": rows}
 
 
-def compare_six_bar(six: SixBar) -> dict:
-    """Every comparison of the module docstring for ``six``, printed as it comes."""
-    rigid = rigid_check(six)
+def compare_linkage(link: Linkage) -> dict:
+    """Every comparison of the module docstring for ``link``, printed as it comes."""
+    rigid = rigid_check(link)
     print(f"  rigid: largest relative difference {rigid['worst']:.2e}", flush=True)
-    frequencies = frequency_check(six)
+    frequencies = frequency_check(link)
     print(f"  frequencies: largest relative difference {frequencies['worst']:.2e}", flush=True)
-    damped = damped_check(six)
+    damped = damped_check(link)
     for row in damped["cases"]:
         print(f"  damped {row['speed']:5.1f} rad/s {','.join(row['flags_ced'])}: "
               + ", ".join(f"{n} {100 * row[n]['ced_over_peer_minus_1']:+.2f} %"
-                          for n in six.flexible), flush=True)
-    undamped = undamped_check(six)
-    return {"mechanism": six.mechanism, "flexible": list(six.flexible), "rigid": rigid,
+                          for n in link.flexible), flush=True)
+    undamped = undamped_check(link)
+    return {"mechanism": link.mechanism, "flexible": list(link.flexible), "rigid": rigid,
             "frequencies": frequencies, "damped": damped, "undamped": undamped}
 
 
 def agree(result: dict) -> bool:
-    """Whether a six-bar's comparisons are within the module's tolerances."""
+    """Whether a linkage's comparisons are within the module's tolerances."""
     worst = result["damped"]["worst_unflagged"]
     return (result["rigid"]["worst"] <= RIGID_TOLERANCE
             and result["frequencies"]["worst"] <= FREQUENCY_TOLERANCE
@@ -348,11 +361,11 @@ def main(argv=None) -> int:
     version = compare.setup_peer()
     started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     results = {}
-    for name, six in SIX_BARS.items():
+    for name, link in LINKAGES.items():
         print(name, flush=True)
-        results[name] = compare_six_bar(six)
+        results[name] = compare_linkage(link)
     out = {"what": __doc__.split("\n")[0],
-           "command": ".venv/bin/python benchmarks/peer/six_bars.py", "started": started,
+           "command": ".venv/bin/python benchmarks/peer/linkages.py", "started": started,
            "exudyn": version, "python": platform.python_version(), "section": SECTION,
            "tolerances": {"rigid": RIGID_TOLERANCE, "frequency": FREQUENCY_TOLERANCE,
                           "damped_strain_unflagged": STRAIN_TOLERANCE},
