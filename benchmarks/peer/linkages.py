@@ -14,7 +14,7 @@ the undeformed state. Four comparisons for each:
    ternary link's mass, centre and inertia, and the inverse dynamics. The first
    :data:`START_UP` of a revolution is reported apart: there the peer's generalized-α
    accelerations (and so its forces) still carry the start-up transient of an index-3
-   integration, which decays with the steps taken (3.5e-3–5.9e-3 of the largest torque 32
+   integration, which decays with the steps taken (3.5e-3–5.9e-3 of the largest value 32
    steps after the start at 4096 steps a revolution; the Watt II's 2e-4 64 steps after it
    at 8192).
 2. **Natural frequencies** of the linkage frozen at t = 0, at rest, its input held, with each
