@@ -158,7 +158,8 @@ BOUNDARY = {
     "clamped-free": (1.875104069, 2.0),
     "clamped-pinned": (3.926602312, math.pi / math.sqrt(20.190729)),
 }
-_ELASTIC = ("elastic_inertia", "coriolis", "centrifugal", "axial_stiffening", "damping")
+_ELASTIC = ("elastic_inertia", "coriolis", "centrifugal", "axial_stiffening",
+            "elastic_axial_force", "damping")
 _FE_FORMULATIONS = ("euler_bernoulli", "timoshenko")
 _EPS = 1.0 / ESTIMATE_CAP
 _UNDEFORMED_NOTE = (
@@ -667,6 +668,13 @@ def _elastic_effects(scene, batch, motion, flexible, parts, stress, omega1, how,
         f"axial force of the {name} against its buckling load π²EI/(K_e L)² = {n_cr:.4g} N "
         f"({bc}): max tension {tension:.4g} N, max compression {compression:.4g} N; change of "
         f"the forced response {est:.3g}"))
+    # elastic_axial_force: the elastic joint forces' share of N is of the same order as the
+    # rigid one (ced.response.axial_force), but solving for it takes fixed-point iterations of
+    # the whole run: never chosen here, only reported.
+    out["elastic_axial_force"] = _entry(False, est, (
+        "the elastic response's own axial force in the geometric stiffness: of the order of "
+        f"axial_stiffening's estimate ({est:.3g}); not chosen automatically (3-5 solves of the "
+        "whole run): list it by name to have it"))
 
     # damping: as the scene asks, where there is a velocity to damp.
     d = scene["damping"]

@@ -69,7 +69,7 @@ __all__ = [
 # ------------------------------------------------------------------------------ vocabulary
 #: Every effect, in canonical order (normalized ``effects`` lists follow it).
 EFFECTS = ("inertia", "elastic_inertia", "gravity", "coriolis", "centrifugal",
-           "axial_stiffening", "damping")
+           "axial_stiffening", "elastic_axial_force", "damping")
 DEFAULT_EFFECTS = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening"]
 FORMULATIONS = ("euler_bernoulli", "timoshenko", "seed_lame", "plane_stress", "rigid")
 INTEGRATORS = ("newmark", "hht", "generalized_alpha", "houbolt")
@@ -491,6 +491,25 @@ def _spectral_allowed(scene: dict) -> None:
                                                  "steps); give the discretization or use shooting")
 
 
+def _elastic_axial_force_allowed(scene: dict) -> None:
+    """``effects: [..., elastic_axial_force]`` adds the elastic response's axial force to the
+    rigid motion's in the geometric stiffness (:mod:`ced.response.axial_force`): it needs that
+    geometric stiffness, a beam's axial strain, and a run whose steps it can iterate over (a
+    transient: its added force is not periodic)."""
+    if "axial_stiffening" not in scene["effects"]:
+        raise SceneError("effects", "elastic_axial_force adds to the geometric stiffness of "
+                                    "axial_stiffening: list axial_stiffening too")
+    disc = scene["discretization"]
+    if disc != AUTO and disc["formulation"] not in ("euler_bernoulli", "timoshenko"):
+        raise SceneError("discretization.formulation",
+                         f"elastic_axial_force needs a beam's axial strain: euler_bernoulli or "
+                         f"timoshenko (got {disc['formulation']!r})")
+    if scene["time"]["start"] == "periodic":
+        raise SceneError("time.start", "elastic_axial_force is solved by iterating over the "
+                                       "steps of a transient: undeformed or quasi_static (got "
+                                       "'periodic')")
+
+
 def _normalize(raw: Any) -> dict:
     if not isinstance(raw, Mapping):
         kind = "empty" if raw is None else type(raw).__name__
@@ -535,6 +554,8 @@ def _normalize(raw: Any) -> dict:
                                                     "(got periodic_solver: "
                                                     f"{scene['time']['periodic_solver']}); "
                                                     "leave it auto or drop it")
+    if "elastic_axial_force" in scene["effects"]:
+        _elastic_axial_force_allowed(scene)
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])

@@ -9,6 +9,7 @@ status flags. Everything is vectorized across the cases of the batch.
 """
 from __future__ import annotations
 
+import dataclasses
 import marshal
 import math
 import os
@@ -22,6 +23,8 @@ from ..problem.errors import SceneError
 from ..problem.linkage import ASSEMBLY_SAMPLES, describe, transmission
 from ..problem.mechanism import NEAR_SINGULAR_SIN, near_singular
 from ..problem.status import STATUS_FLAGS
+from .axial_force import (MAX_ITERATIONS, TOLERANCE, ElasticAxialForce, added_axial_force,
+                          axial_strain, relative_change)
 from .batch import Batch
 from .collocation import SpectralSteadyState, spectral_steady_state
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
@@ -130,6 +133,8 @@ def elastic_response(batch: Batch, status: np.ndarray, peaks_only: bool = False,
     result: dict[str, np.ndarray] = {}
     qz, qz_static, period = _response(model, status, result, full=not peaks_only,
                                       guesses=guesses)
+    if "elastic_axial_force" in model.effects and "elastic_inertia" in model.effects:
+        qz = _with_elastic_axial_force(model, status, qz, period)
     series = result.pop(_SERIES, None)
     if series is not None and series.samples is not None:
         result[SERIES_SAMPLES] = series.samples
@@ -215,7 +220,11 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
         _add_series(result, series)
         if series.solved.all():
             return None, None, None
-    period = period_terms(model, h, batch.period_steps, exact=sharp)
+    if model.elastic_axial_force is None:
+        period = period_terms(model, h, batch.period_steps, exact=sharp)
+    else:
+        # The added axial force is not periodic: the terms of every step of the run.
+        period = period_terms(model, h, n_steps + 1, exact=True)
     if full:
         status[forced_resonance(model, period, turns)] |= STATUS_FLAGS["resonant"]
     qz_static = None
@@ -279,6 +288,44 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
     elif series is not None:  # peaks only: the solved cases' peaks are their series'
         record[series.solved] = 0.0
     return _expand(layout, period, record, out_steps), qz_static, period
+
+
+def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
+                              period: PeriodTerms) -> np.ndarray:
+    """The response with the elastic axial force in the geometric stiffness (effect
+    ``elastic_axial_force``, :mod:`ced.response.axial_force`): fixed-point iterations from the
+    linear response ``qz`` (case, step, nz) over its ``period`` terms, each a solve of the whole
+    run with the last iterate's force, until the displacements change by less than
+    :data:`~ced.response.axial_force.TOLERANCE` of their largest value. A case still changing
+    after :data:`~ced.response.axial_force.MAX_ITERATIONS` keeps its last iterate and is
+    flagged ``large_deflection`` in ``status``: its response is not small enough for the
+    second-order model to hold."""
+    batch, layout = model.batch, model.layout
+    if not model.recovery:
+        return qz
+    steps = np.arange(qz.shape[1])
+    static = _expand(layout, period, _static(period)[:, steps % period.period], steps)
+    offsets, sizes = layout.link_offsets, layout.link_sizes
+    static_strain = axial_strain(model.recovery, offsets, sizes, static)
+    names = list(batch.topology.links)
+    stiffness = {name: batch.link_property(name, "material", "E")
+                 * batch.link_property(name, "section", "area") for name in model.recovery}
+    length = {name: batch.link_lengths[:, names.index(name)] for name in model.recovery}
+    converged = np.zeros(batch.size, bool)
+    for _ in range(MAX_ITERATIONS):
+        added = added_axial_force(axial_strain(model.recovery, offsets, sizes, qz),
+                                  static_strain, stiffness, length, model.stations)
+        iterate = dataclasses.replace(
+            model, elastic_axial_force=ElasticAxialForce(batch.step_size, added),
+            origin=None)  # its terms are its own: not those kept for the linear model
+        new = _response(iterate, status.copy(), {}, full=False)[0]
+        change = relative_change(new, qz)
+        qz = new
+        converged = change <= TOLERANCE
+        if converged.all():
+            break
+    status[~converged] |= STATUS_FLAGS["large_deflection"]
+    return qz
 
 
 def _peak_span(n_steps: int, period: int, turns: int, periodic: bool) -> int:

@@ -27,6 +27,7 @@ from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients,
                                 split_order, system_terms)
 from ..fem.eigenproblem import natural_frequencies
 from ..problem.errors import SceneError
+from .axial_force import ElasticAxialForce
 from .batch import Batch
 
 __all__ = ["Model", "build_model", "terms_at", "StepTerms"]
@@ -52,6 +53,10 @@ class Model:
     # Where a model kept by ced.response.model_cache came from: (its serial, the kept model's
     # case of each case); None for a model built for its batch alone.
     origin: tuple[int, np.ndarray] | None = None
+    # Effect elastic_axial_force: the elastic response's axial force added to the rigid
+    # motion's in the flexible links' geometric stiffness (ced.response.axial_force), set on
+    # the copies the fixed-point iteration solves; None for the linear model.
+    elastic_axial_force: ElasticAxialForce | None = None
 
 
 def build_model(batch: Batch) -> Model:
@@ -510,6 +515,9 @@ def terms_at(
                 f = f + mp * (g - acc)
             fx = c * f[..., 0] + s * f[..., 1]
             axial[name] = axial_force_coefficients(fx, b0[..., 0], b1[..., 0])
+            added = model.elastic_axial_force
+            if added is not None and name in added.coefficients:
+                axial[name] = axial[name] + added.at(name, times)
     acc_j = motion.joint_acceleration if has_inertia else 0.0
     joint_load = model.joint_mass[:, None, :, None] * (gravity[:, None, None, :] - acc_j)
     if "damping" in effects and model.batch.scenes[0]["damping"]["model"] == "rayleigh":

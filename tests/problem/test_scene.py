@@ -92,6 +92,28 @@ def test_null_blocks_mean_defaults_and_null_values_are_errors():
     assert err.value.path == "drive.speed"
 
 
+@pytest.mark.parametrize("change, key, words", [
+    ({"effects": ["inertia", "elastic_inertia", "elastic_axial_force"]}, "effects",
+     "list axial_stiffening too"),
+    ({"discretization": {"formulation": "plane_stress"}}, "discretization.formulation",
+     "euler_bernoulli or timoshenko"),
+    ({"time": {"start": "periodic"}}, "time.start", "undeformed or quasi_static"),
+])
+def test_elastic_axial_force_is_refused_where_it_cannot_be_solved(change, key, words):
+    effects = ["inertia", "elastic_inertia", "axial_stiffening", "elastic_axial_force"]
+    raw = minimal(**{"effects": effects, **change})
+    with pytest.raises(SceneError) as err:
+        load_scene(raw)
+    assert err.value.path == key and words in err.value.message
+
+
+def test_elastic_axial_force_is_accepted_with_its_conditions():
+    effects = ["elastic_axial_force", "axial_stiffening", "inertia", "elastic_inertia"]
+    s = load_scene(minimal(effects=effects, discretization={"formulation": "timoshenko"}))
+    assert s["effects"] == ["inertia", "elastic_inertia", "axial_stiffening",
+                            "elastic_axial_force"]
+
+
 def test_effects_are_sorted_canonically_and_auto_is_kept():
     s = load_scene(minimal(effects=["damping", "gravity", "inertia"]))
     assert s["effects"] == ["inertia", "gravity", "damping"]
@@ -316,7 +338,9 @@ def valid_scenes(draw):
         point_masses=st.dictionaries(st.sampled_from(topo.joint_names), st.floats(0, 1)),
         drive=_opt(speed=st.floats(1, 1000), initial_angle=st.floats(-7, 7),
                    amplitude=st.floats(0.01, 1)),
-        effects=st.one_of(st.just("auto"), st.lists(st.sampled_from(EFFECTS), unique=True)),
+        # elastic_axial_force has conditions of its own on other keys: tested apart.
+        effects=st.one_of(st.just("auto"), st.lists(
+            st.sampled_from([e for e in EFFECTS if e != "elastic_axial_force"]), unique=True)),
         gravity=st.lists(st.floats(-20, 20), min_size=2, max_size=2),
         damping=st.just(damping),
         discretization=st.one_of(st.just("auto"), _opt(

@@ -1,0 +1,131 @@
+"""The elastic response's own axial force in the geometric stiffness (effect
+``elastic_axial_force``, :mod:`ced.response.axial_force`)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ced
+import ced.response.elastic as elastic
+from ced.problem.scene import load_scene
+from ced.problem.status import STATUS_FLAGS
+from ced.response.axial_force import (ElasticAxialForce, added_axial_force, axial_strain,
+                                      relative_change)
+from ced.response.batch import make_batch
+from ced.response.model import build_model
+
+finite = st.floats(-1e3, 1e3)
+
+#: The Watt II of benchmarks/peer/linkages.py, its couplers flexible, lightly damped.
+WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+           "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+           "pivot2_x": 0.2, "pivot2_y": -0.3}
+#: The independent code's peak outer-fibre strain of its coupler at 50 rad/s (Exudyn, 32
+#: geometrically exact ANCF cables, 8192 steps a revolution: benchmarks/peer_linkages.json).
+PEER_COUPLER_PEAK = 3.2107470791740403e-04
+LINEAR = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening",
+          "damping"]
+
+
+def watt_ii(effects, elements=6, steps=1024, speed=50.0):
+    section = {"shape": "rectangle", "height": 0.005, "width": 0.01}
+    links = {"default": {"material": "steel", "section": section, "flexible": False},
+             "coupler": {"flexible": True}, "coupler2": {"flexible": True}}
+    return {"mechanism": WATT_II, "links": links, "drive": {"speed": speed},
+            "effects": effects, "damping": {"model": "rayleigh", "beta": 1e-5},
+            "discretization": {"elements_per_link": elements},
+            "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "undeformed"},
+            "outputs": {"stations": 21, "error_estimate": False}}
+
+
+def coupler_peak(ds) -> float:
+    links = [str(x) for x in ds["link"].values]
+    return float(np.abs(ds["bending_strain"][0, :, links.index("coupler")]).max())
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(finite, min_size=12, max_size=12), st.floats(1e-4, 1.0))
+def test_the_added_force_is_exact_at_the_steps_and_linear_between(values, step):
+    c = np.array(values).reshape(3, 1, 4)
+    force = ElasticAxialForce(np.array([step]), {"link": c})
+    steps = np.arange(4.0)[None, :] * step
+    assert np.allclose(force.at("link", steps), c, rtol=1e-12, atol=1e-9)
+    half = force.at("link", (np.arange(3.0)[None, :] + 0.5) * step)
+    assert np.allclose(half, 0.5 * (c[..., :-1] + c[..., 1:]), rtol=1e-12, atol=1e-9)
+    beyond = force.at("link", np.array([[10.0 * step]]))
+    assert np.allclose(beyond[..., 0], c[..., -1], rtol=1e-12, atol=1e-9)
+
+
+@settings(max_examples=50, deadline=None)
+@given(finite, finite, finite, st.floats(0.05, 2.0), st.floats(1e5, 1e9))
+def test_a_quadratic_axial_force_is_fitted_exactly(n0, n1, n2, length, ea):
+    stations = np.linspace(0.0, 1.0, 21)
+    s = length * stations
+    force = n0 + n1 * s + n2 * s * s
+    # Two steps: the force at the second, none at the first; a static strain subtracted.
+    static = np.full((1, 2, 21), 3e-6)
+    strain = static + np.stack([0.0 * s, force / ea])[None]
+    out = added_axial_force({"bar": strain}, {"bar": static}, {"bar": np.array([ea])},
+                            {"bar": np.array([length])}, stations)["bar"]
+    scale = max(abs(n0), abs(n1) * length, abs(n2) * length**2, 1e-9)
+    assert out.shape == (3, 1, 2)
+    assert np.allclose(out[:, 0, 0], 0.0, atol=1e-9 * scale)
+    assert np.allclose(out[:, 0, 1] * [1.0, length, length**2],
+                       [n0, n1 * length, n2 * length**2], atol=1e-9 * scale)
+
+
+def test_axial_strain_is_the_recovered_one():
+    """The strain the iteration reads is the one the outputs store."""
+    scene = load_scene(watt_ii(LINEAR, steps=64))
+    model = build_model(make_batch([scene]))
+    layout = model.layout
+    rng = np.random.default_rng(0)
+    qz = rng.normal(size=(1, 5, layout.nz)) * 1e-4
+    mine = axial_strain(model.recovery, layout.link_offsets, layout.link_sizes, qz)
+    fields = elastic._recover_numpy(model, qz, None, True)["axial_strain"]
+    links = list(layout.topology.links)
+    for name, eps in mine.items():
+        assert np.allclose(eps, fields[:, :, links.index(name)], rtol=1e-5, atol=1e-12)
+    assert set(mine) == {"coupler", "coupler2"}
+
+
+def test_relative_change_per_case():
+    old = np.zeros((2, 3, 4))
+    new = old.copy()
+    new[0, 1, 2] = 2.0
+    new[0, 0, 0] = 4.0
+    assert relative_change(new, old).tolist() == [1.0, 0.0]
+    assert relative_change(new, new).tolist() == [0.0, 0.0]
+
+
+@pytest.mark.slow
+def test_the_watt_ii_coupler_meets_the_independent_code_with_the_elastic_force():
+    """The Watt II's coupler at 50 rad/s: its axial force from the rigid motion alone leaves
+    its peak strain 1.4 % above the geometrically exact peer's, the elastic joint forces
+    of coupler2 (through the ternary rocker) counted too bring it within 0.3 %."""
+    linear = coupler_peak(ced.simulate(watt_ii(LINEAR)))
+    second = ced.simulate(watt_ii(LINEAR[:5] + ["elastic_axial_force", "damping"]))
+    assert int(second["status"][0]) == 0
+    assert abs(linear / PEER_COUPLER_PEAK - 1.0) > 0.01  # the check can tell them apart
+    assert abs(coupler_peak(second) / PEER_COUPLER_PEAK - 1.0) < 0.003
+
+
+def test_a_case_whose_iteration_does_not_settle_is_flagged(monkeypatch):
+    """One iteration only: the response still changes by more than the tolerance, and the
+    case says that its second-order model is stretched."""
+    monkeypatch.setattr(elastic, "MAX_ITERATIONS", 1)
+    ds = ced.simulate(watt_ii(LINEAR[:5] + ["elastic_axial_force", "damping"], 4, 256))
+    assert int(ds["status"][0]) & STATUS_FLAGS["large_deflection"]
+    monkeypatch.setattr(elastic, "MAX_ITERATIONS", 12)
+    ds = ced.simulate(watt_ii(LINEAR[:5] + ["elastic_axial_force", "damping"], 4, 256))
+    assert int(ds["status"][0]) == 0
+
+
+def test_without_elastic_inertia_the_effect_adds_nothing():
+    """Quasi-static, the response's axial strain is the quasi-static one: nothing to add."""
+    quasi = ["inertia", "axial_stiffening"]
+    a = ced.simulate(watt_ii(quasi, 4, 128))
+    b = ced.simulate(watt_ii(quasi + ["elastic_axial_force"], 4, 128))
+    assert np.array_equal(a["bending_strain"].values, b["bending_strain"].values)
