@@ -28,10 +28,11 @@ from .axial_force import (MAX_ITERATIONS, TOLERANCE, ElasticAxialForce, added_ax
 from .batch import Batch
 from .collocation import SpectralSteadyState, spectral_steady_state
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
-from .integrators import from_independent, integrator_for, stability_limit, start
+from .integrators import (forced_columns, from_independent, integrator_for, march,
+                          stability_limit, start)
 from .kernels import expand, static_period, static_period_packed
 from .marching import Marcher
-from .model import Model, terms_at
+from .model import Model, StepTerms, terms_at
 from .model_cache import model_for
 from .period_terms import PeriodTerms, interpolate_periodic, period_terms
 from .periodic import INSTABILITY_MARGIN, floquet, monodromy, periodic_state
@@ -220,11 +221,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
         _add_series(result, series)
         if series.solved.all():
             return None, None, None
-    if model.elastic_axial_force is None:
-        period = period_terms(model, h, batch.period_steps, exact=sharp)
-    else:
-        # The added axial force is not periodic: the terms of every step of the run.
-        period = period_terms(model, h, n_steps + 1, exact=True)
+    period = period_terms(model, h, batch.period_steps, exact=sharp)
     if full:
         status[forced_resonance(model, period, turns)] |= STATUS_FLAGS["resonant"]
     qz_static = None
@@ -303,7 +300,8 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     batch, layout = model.batch, model.layout
     if not model.recovery:
         return qz
-    steps = np.arange(qz.shape[1])
+    h, n_steps = batch.step_size, qz.shape[1] - 1
+    steps = np.arange(n_steps + 1)
     static = _expand(layout, period, _static(period)[:, steps % period.period], steps)
     offsets, sizes = layout.link_offsets, layout.link_sizes
     static_strain = axial_strain(model.recovery, offsets, sizes, static)
@@ -311,14 +309,20 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     stiffness = {name: batch.link_property(name, "material", "E")
                  * batch.link_property(name, "section", "area") for name in model.recovery}
     length = {name: batch.link_lengths[:, names.index(name)] for name in model.recovery}
+    time_cfg = batch.scenes[0]["time"]
+    q0 = np.zeros((batch.size, layout.ny, 1))
+    v0 = np.zeros_like(q0)
+    if time_cfg["start"] == "quasi_static":
+        q0, v0 = _quasi_static_start(model, h)
     converged = np.zeros(batch.size, bool)
     for _ in range(MAX_ITERATIONS):
         added = added_axial_force(axial_strain(model.recovery, offsets, sizes, qz),
                                   static_strain, stiffness, length, model.stations)
         iterate = dataclasses.replace(
-            model, elastic_axial_force=ElasticAxialForce(batch.step_size, added),
+            model, elastic_axial_force=ElasticAxialForce(h, added),
             origin=None)  # its terms are its own: not those kept for the linear model
-        new = _response(iterate, status.copy(), {}, full=False)[0]
+        y = march_every_step(iterate, integrator_for(time_cfg), n_steps, q0, v0)
+        new = _expand(layout, period, y, steps)  # the projection is the rigid motion's
         change = relative_change(new, qz)
         qz = new
         converged = change <= TOLERANCE
@@ -326,6 +330,42 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
             break
     status[~converged] |= STATUS_FLAGS["large_deflection"]
     return qz
+
+
+def march_every_step(model: Model, scheme, n_steps: int, q0: np.ndarray,
+                     v0: np.ndarray) -> np.ndarray:
+    """The response y (case, step, ny) of ``model`` over ``n_steps`` steps from (q0, v0)
+    (case, ny, 1), its terms evaluated step by step a chunk at a time
+    (:class:`ced.response.model.StepTerms`: memory bounded whatever the run's length) and
+    marched by :func:`ced.response.integrators.march`. The path of terms that are not
+    periodic; the periodic ones go through :class:`ced.response.marching.Marcher`.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    scheme : NewmarkFamily or Houbolt
+        The integrator (:func:`ced.response.integrators.integrator_for`).
+    n_steps : int
+        Steps of the run.
+    q0, v0 : numpy.ndarray
+        Initial displacements (m) and velocities (m/s) in the independent coordinates,
+        (case, ny, 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Displacements at steps 0 … n_steps, shape (case, n_steps + 1, ny).
+    """
+    h = model.batch.step_size
+    terms = forced_columns(StepTerms(model, h, n_steps), 1)
+    y = np.empty((model.batch.size, n_steps + 1, model.layout.ny))
+
+    def keep(k: int, state) -> None:
+        y[:, k] = state.q[..., 0]
+
+    march(scheme, terms, h, n_steps, start(terms, q0, v0), record=keep)
+    return y
 
 
 def _peak_span(n_steps: int, period: int, turns: int, periodic: bool) -> int:

@@ -2,6 +2,8 @@
 ``elastic_axial_force``, :mod:`ced.response.axial_force`)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,7 +16,9 @@ from ced.problem.status import STATUS_FLAGS
 from ced.response.axial_force import (ElasticAxialForce, added_axial_force, axial_strain,
                                       relative_change)
 from ced.response.batch import make_batch
+from ced.response.integrators import integrator_for
 from ced.response.model import build_model
+from ced.response.period_terms import period_terms
 
 finite = st.floats(-1e3, 1e3)
 
@@ -129,3 +133,25 @@ def test_without_elastic_inertia_the_effect_adds_nothing():
     a = ced.simulate(watt_ii(quasi, 4, 128))
     b = ced.simulate(watt_ii(quasi + ["elastic_axial_force"], 4, 128))
     assert np.array_equal(a["bending_strain"].values, b["bending_strain"].values)
+
+
+def test_the_step_by_step_march_is_the_periodic_one_with_nothing_added():
+    """An iteration's path (terms step by step, the generic march) with an added force of
+    zero gives the linear response of the period terms' compiled march, to round-off."""
+    scenes = [load_scene(watt_ii(LINEAR, 4, 256, speed)) for speed in (30.0, 60.0)]
+    linear = ced.simulate(scenes)
+    model = build_model(make_batch(scenes))
+    batch, layout = model.batch, model.layout
+    n_steps = batch.n_steps
+    zero = {name: np.zeros((3, batch.size, n_steps + 1)) for name in model.recovery}
+    iterate = dataclasses.replace(model, elastic_axial_force=ElasticAxialForce(
+        batch.step_size, zero))
+    q0 = np.zeros((batch.size, layout.ny, 1))
+    y = elastic.march_every_step(iterate, integrator_for(scenes[0]["time"]), n_steps, q0,
+                                 q0.copy())
+    period = period_terms(model, batch.step_size, batch.period_steps)
+    steps = np.arange(n_steps + 1)
+    qz = elastic._expand(layout, period, y, steps)
+    fields = elastic._recover_numpy(model, qz, None, True)
+    scale = np.abs(linear["bending_strain"].values).max()
+    assert np.abs(fields["bending_strain"] - linear["bending_strain"].values).max() < 1e-5 * scale
