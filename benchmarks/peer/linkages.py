@@ -31,7 +31,10 @@ the undeformed state. Four comparisons for each:
    bending strain of each flexible link over time and 21 stations: ced's linear KED
    (Euler–Bernoulli beams in the moving frames) against Exudyn's geometrically exact ANCF
    cables. The peer's strain at a node is an element's end curvature, which converges more
-   slowly than ced's recovery: it runs :data:`PEER_ELEMENTS` elements.
+   slowly than ced's recovery: it runs :data:`PEER_ELEMENTS` elements. ced twice: with its
+   default geometric stiffness (the rigid motion's axial forces) and with the effect
+   ``elastic_axial_force`` (the elastic response's own axial force too,
+   :mod:`ced.response.axial_force`), reported side by side.
 4. **Peak strains, undamped**, each code at two time steps. The undeformed start rings in
    every mode of the links; the Watt II's coupler2 carries a 1.5–4 kHz ripple on its peak,
    and where its crest falls moves the peak by a few per cent with the step in both codes:
@@ -47,7 +50,7 @@ rigid results differ by more than :data:`RIGID_TOLERANCE`, a frequency by more t
 :data:`STRAIN_TOLERANCE`.
 
 Run ``.venv/bin/python benchmarks/peer/linkages.py`` (installs the peer on first use; about
-six minutes).
+twelve minutes).
 """
 from __future__ import annotations
 
@@ -138,9 +141,10 @@ STRAIN_TOLERANCE = 0.02
 
 
 def scene(mechanism: dict, speed: float, flexible: tuple, elements: int = 16,
-          steps: int = RIGID_STEPS, beta: float = 0.0) -> dict:
+          steps: int = RIGID_STEPS, beta: float = 0.0, second_order: bool = False) -> dict:
     """ced's scene: ``mechanism`` at ``speed`` rad/s, ``flexible`` links flexible, Rayleigh
-    damping βK (``beta``, s) where it is not zero."""
+    damping βK (``beta``, s) where it is not zero; with ``second_order`` the effect
+    ``elastic_axial_force`` too."""
     links = {"default": {"material": "steel", "section": SECTION, "flexible": False},
              **{name: {"flexible": True} for name in flexible}}
     damping = {}
@@ -148,6 +152,10 @@ def scene(mechanism: dict, speed: float, flexible: tuple, elements: int = 16,
         damping = {"effects": ["inertia", "elastic_inertia", "coriolis", "centrifugal",
                                "axial_stiffening", "damping"],
                    "damping": {"model": "rayleigh", "beta": beta}}
+    if second_order:
+        effects = damping.get("effects", ["inertia", "elastic_inertia", "coriolis",
+                                          "centrifugal", "axial_stiffening"])
+        damping["effects"] = effects + ["elastic_axial_force"]
     return {**damping, "mechanism": mechanism, "links": links, "drive": {"speed": float(speed)},
             "discretization": ({"elements_per_link": elements} if flexible
                                else {"formulation": "rigid"}),
@@ -246,11 +254,12 @@ def rigid_check(link: Linkage, speeds=RIGID_SPEEDS) -> dict:
             "worst": max(r["worst"] for r in rows), "tolerance": RIGID_TOLERANCE}
 
 
-def ced_peaks(link: Linkage, speeds, elements: int, steps: int, beta: float = 0.0) -> list[dict]:
+def ced_peaks(link: Linkage, speeds, elements: int, steps: int, beta: float = 0.0,
+              second_order: bool = False) -> list[dict]:
     """ced's peak outer-fibre bending strain of each flexible link, where it is, and the
     case's status."""
-    ds = ced.simulate([scene(link.mechanism, w, link.flexible, elements, steps, beta)
-                       for w in speeds])
+    ds = ced.simulate([scene(link.mechanism, w, link.flexible, elements, steps, beta,
+                             second_order) for w in speeds])
     links = [str(x) for x in ds["link"].values]
     out = []
     for i in range(len(speeds)):
@@ -294,16 +303,19 @@ def damped_check(link: Linkage) -> dict:
     elements, steps = CED_DAMPED
     speeds = link.damped_speeds
     mine = ced_peaks(link, speeds, elements, steps, BETA)
+    second = ced_peaks(link, speeds, elements, steps, BETA, second_order=True)
     theirs = run_peer(linkage(link.mechanism, link.flexible, BETA), PEER_ELEMENTS, steps,
                       speeds)["cases"]
     rows = []
-    for a, b in zip(mine, theirs):
+    for a, a2, b in zip(mine, second, theirs):
         row = {"speed": a["speed"], "status_ced": a["status"],
-               "flags_ced": status_names(a["status"])}
+               "flags_ced": status_names(a["status"]),
+               "flags_ced_second_order": status_names(a2["status"])}
         for name in link.flexible:
-            x, y = a["peak_strain"][name], b["peak_strain"][name]
-            row[name] = {"ced": x, "peer": y,
-                         "ced_over_peer_minus_1": x["value"] / y["value"] - 1.0}
+            x, x2, y = a["peak_strain"][name], a2["peak_strain"][name], b["peak_strain"][name]
+            row[name] = {"ced": x, "ced_second_order": x2, "peer": y,
+                         "ced_over_peer_minus_1": x["value"] / y["value"] - 1.0,
+                         "second_order_over_peer_minus_1": x2["value"] / y["value"] - 1.0}
         rows.append(row)
     held = [abs(r[n]["ced_over_peer_minus_1"]) for r in rows if r["status_ced"] == 0
             for n in link.flexible]
@@ -341,8 +353,9 @@ def compare_linkage(link: Linkage) -> dict:
     damped = damped_check(link)
     for row in damped["cases"]:
         print(f"  damped {row['speed']:5.1f} rad/s {','.join(row['flags_ced'])}: "
-              + ", ".join(f"{n} {100 * row[n]['ced_over_peer_minus_1']:+.2f} %"
-                          for n in link.flexible), flush=True)
+              + ", ".join(f"{n} {100 * row[n]['ced_over_peer_minus_1']:+.2f} % "
+                          f"({100 * row[n]['second_order_over_peer_minus_1']:+.2f} % with "
+                          f"elastic_axial_force)" for n in link.flexible), flush=True)
     undamped = undamped_check(link)
     return {"mechanism": link.mechanism, "flexible": list(link.flexible), "rigid": rigid,
             "frequencies": frequencies, "damped": damped, "undamped": undamped}
