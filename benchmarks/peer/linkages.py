@@ -34,7 +34,10 @@ the undeformed state. Four comparisons for each:
    slowly than ced's recovery: it runs :data:`PEER_ELEMENTS` elements. ced twice: with its
    default geometric stiffness (the rigid motion's axial forces) and with the effect
    ``elastic_axial_force`` (the elastic response's own axial force too,
-   :mod:`ced.response.axial_force`), reported side by side.
+   :mod:`ced.response.axial_force`), reported side by side. A peak is one sample of a
+   history whose phase moves it; the RMS difference of each link's strain history at the
+   peer's peak station (:data:`RECORD` samples over the run, relative to the peak) is
+   reported beside it.
 4. **Peak strains, undamped**, each code at two time steps. The undeformed start rings in
    every mode of the links; the Watt II's coupler2 carries a 1.5–4 kHz ripple on its peak,
    and where its crest falls moves the peak by a few per cent with the step in both codes:
@@ -257,21 +260,36 @@ def rigid_check(link: Linkage, speeds=RIGID_SPEEDS) -> dict:
 def ced_peaks(link: Linkage, speeds, elements: int, steps: int, beta: float = 0.0,
               second_order: bool = False) -> list[dict]:
     """ced's peak outer-fibre bending strain of each flexible link, where it is, and the
-    case's status."""
+    case's status; with its signed bending strain (time, station) per link, ``history``."""
     ds = ced.simulate([scene(link.mechanism, w, link.flexible, elements, steps, beta,
                              second_order) for w in speeds])
     links = [str(x) for x in ds["link"].values]
     out = []
     for i in range(len(speeds)):
-        peaks = {}
+        peaks, history = {}, {}
         for name in link.flexible:
-            strain = np.abs(np.asarray(ds["bending_strain"][i, :, links.index(name)]))
+            history[name] = np.asarray(ds["bending_strain"][i, :, links.index(name)], float)
+            strain = np.abs(history[name])
             it, js = np.unravel_index(np.argmax(strain), strain.shape)
             peaks[name] = {"value": float(strain.max()), "time": float(ds["time"][i, it]),
                            "station": float(ds["station"][js])}
         out.append({"speed": float(speeds[i]), "peak_strain": peaks,
-                    "status": int(ds["status"][i])})
+                    "status": int(ds["status"][i]), "history": history,
+                    "time": np.asarray(ds["time"][i], float),
+                    "station": np.asarray(ds["station"], float)})
     return out
+
+
+def history_difference(mine: dict, theirs: dict, name: str) -> float:
+    """RMS difference of ``name``'s signed bending strain over the run, ced's (``mine``, of
+    :func:`ced_peaks`) against the peer's (``theirs``) at the peer's recorded times and at the
+    station of its peak, relative to the peer's peak: the whole history, where a peak is one
+    sample of it."""
+    t = np.asarray(theirs["time"])
+    k = np.rint(t / mine["time"][1]).astype(int)
+    js = int(np.argmin(np.abs(mine["station"] - theirs["peak_strain"][name]["station"])))
+    d = mine["history"][name][k, js] - np.asarray(theirs["strain_history"][name])
+    return float(np.sqrt(np.mean(d * d)) / theirs["peak_strain"][name]["value"])
 
 
 def frequency_check(link: Linkage) -> dict:
@@ -315,7 +333,10 @@ def damped_check(link: Linkage) -> dict:
             x, x2, y = a["peak_strain"][name], a2["peak_strain"][name], b["peak_strain"][name]
             row[name] = {"ced": x, "ced_second_order": x2, "peer": y,
                          "ced_over_peer_minus_1": x["value"] / y["value"] - 1.0,
-                         "second_order_over_peer_minus_1": x2["value"] / y["value"] - 1.0}
+                         "second_order_over_peer_minus_1": x2["value"] / y["value"] - 1.0,
+                         "history_rms_difference": history_difference(a, b, name),
+                         "second_order_history_rms_difference":
+                             history_difference(a2, b, name)}
         rows.append(row)
     held = [abs(r[n]["ced_over_peer_minus_1"]) for r in rows if r["status_ced"] == 0
             for n in link.flexible]
@@ -355,7 +376,10 @@ def compare_linkage(link: Linkage) -> dict:
         print(f"  damped {row['speed']:5.1f} rad/s {','.join(row['flags_ced'])}: "
               + ", ".join(f"{n} {100 * row[n]['ced_over_peer_minus_1']:+.2f} % "
                           f"({100 * row[n]['second_order_over_peer_minus_1']:+.2f} % with "
-                          f"elastic_axial_force)" for n in link.flexible), flush=True)
+                          f"elastic_axial_force), history rms "
+                          f"{100 * row[n]['history_rms_difference']:.2f} % "
+                          f"({100 * row[n]['second_order_history_rms_difference']:.2f} %)"
+                          for n in link.flexible), flush=True)
     undamped = undamped_check(link)
     return {"mechanism": link.mechanism, "flexible": list(link.flexible), "rigid": rigid,
             "frequencies": frequencies, "damped": damped, "undamped": undamped}

@@ -41,8 +41,9 @@ STATUS_FLAGS = {
 }
 #: What each flag means, in one line (for the dataset reference and ``ced run``'s summary).
 STATUS_MEANINGS = {
-    "large_deflection": "a link's peak elastic deflection exceeds 1 % of its length: the "
-                        "linear (small-deflection) model is stretched",
+    "large_deflection": "a link's peak elastic deflection exceeds 1 % of its length, or the "
+                        "iteration of elastic_axial_force did not settle: the linear "
+                        "(small-deflection) model is stretched",
     "near_singular": "the linkage passes near a toggle or change point (|sin| of the "
                      "transmission angle below 0.1): stiffness and results are sensitive there",
     "resonant": "a crank harmonic falls in a mode's frequency band over the cycle, a "
