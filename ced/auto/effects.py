@@ -673,8 +673,8 @@ def _elastic_effects(scene, batch, motion, flexible, parts, stress, omega1, how,
     # the whole run: never chosen here, only reported.
     out["elastic_axial_force"] = _entry(False, est, (
         "the elastic response's own axial force in the geometric stiffness: of the order of "
-        f"axial_stiffening's estimate ({est:.3g}); not chosen automatically (3-5 solves of the "
-        "whole run): list it by name to have it"))
+        f"axial_stiffening's estimate ({est:.3g}); not chosen automatically (it takes several "
+        "solves of the whole run): list it by name to have it"))
 
     # damping: as the scene asks, where there is a velocity to damp.
     d = scene["damping"]

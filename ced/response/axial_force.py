@@ -6,23 +6,24 @@ force N(s, t) of the rigid motion: its d'Alembert load and its rigid joint force
 response changes the joint forces as well. A vibrating link's end shear reaches the next link
 through the joints as an axial load: the Watt II's coupler2, hanging from the ternary rocker,
 pushes and pulls on the coupler. That part is of the same order as the rigid one, since both
-balance the same inertia loads. A geometric stiffness without it keeps one half of a
-second-order term and drops the other: against an independent, geometrically exact code
-(``benchmarks/peer/linkages.py``) the Watt II's coupler peaks 1.4 % high at 50 rad/s with
-the rigid force alone and within 0.2 % with both.
+balance the same inertia loads. A geometric stiffness without it keeps one part of a
+second-order term and drops another of the same size. Against an independent, geometrically
+exact code (``benchmarks/peer/linkages.py``), the Watt II's coupler peaks 1.4 % high at
+50 rad/s with the rigid force alone, and within 0.2 % with both.
 
 With the effect, the axial force of a flexible link is
 
     N(s, t) = N_rigid(s, t) + EA (ε(s, t) − ε_qs(s, t)),
 
-with ε the axial strain of the response and ε_qs that of the quasi-static response, whose EA ε_qs
-is N_rigid to the discretization. The added part is fitted in s by a quadratic, the form
-:func:`ced.fem.effect_terms.axial_force_coefficients` gives K_g, by least squares over the
-output stations. The model is then quadratic in the displacements. It is solved by
-fixed-point iteration of the whole run (:func:`ced.response.elastic.elastic_response`). Each
-iteration is a linear KED solve with the last iterate's N. The added force is not periodic, so its terms are evaluated step by step, a
-chunk at a time, and marched by the generic integrator. Memory stays bounded, but each
-iteration costs several times the periodic march of the linear solve.
+with ε the axial strain of the response and ε_qs that of the quasi-static response, whose
+EA ε_qs is N_rigid to the discretization. The added part is fitted in s by a quadratic (the
+form :func:`ced.fem.effect_terms.axial_force_coefficients` gives K_g), by least squares over
+the output stations. The model is then quadratic in the displacements. It is solved by
+fixed-point iteration of the whole run (:func:`ced.response.elastic.elastic_response`).
+Each iteration is a linear KED solve with the last iterate's N. The added force is not
+periodic, so its terms are evaluated step by step, a chunk at a time, and marched by the
+generic integrator. Memory stays bounded, but each iteration costs several times the
+periodic march of the linear solve.
 
 Rigid links keep the rigid motion's forces; the frozen modal analysis and the forced-resonance
 check keep N_rigid.
