@@ -294,9 +294,9 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     linear response ``qz`` (case, step, nz) over its ``period`` terms, each a solve of the whole
     run with the last iterate's force, until the displacements change by less than
     :data:`~ced.response.axial_force.TOLERANCE` of their largest value. A case still changing
-    after :data:`~ced.response.axial_force.MAX_ITERATIONS` keeps its last iterate and is
-    flagged ``large_deflection`` in ``status``: its response is not small enough for the
-    second-order model to hold."""
+    after :data:`~ced.response.axial_force.MAX_ITERATIONS`, or whose iterate is no longer
+    finite, keeps its last finite iterate and is flagged ``large_deflection`` in ``status``:
+    its response is not small enough for the second-order model to hold."""
     batch, layout = model.batch, model.layout
     if not model.recovery:
         return qz
@@ -315,6 +315,7 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     if time_cfg["start"] == "quasi_static":
         q0, v0 = _quasi_static_start(model, h)
     converged = np.zeros(batch.size, bool)
+    stuck = np.zeros(batch.size, bool)  # an iterate no longer finite: kept at the last one
     for _ in range(MAX_ITERATIONS):
         added = added_axial_force(axial_strain(model.recovery, offsets, sizes, qz),
                                   static_strain, stiffness, length, model.stations)
@@ -323,10 +324,12 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
             origin=None)  # its terms are its own: not those kept for the linear model
         y = march_every_step(iterate, integrator_for(time_cfg), n_steps, q0, v0)
         new = _expand(layout, period, y, steps)  # the projection is the rigid motion's
-        change = relative_change(new, qz)
+        # A diverging iteration (near buckling) keeps its last finite iterate, flagged below.
+        stuck |= ~np.isfinite(new).all(axis=(1, 2))
+        new[stuck] = qz[stuck]
+        converged = (relative_change(new, qz) <= TOLERANCE) & ~stuck
         qz = new
-        converged = change <= TOLERANCE
-        if converged.all():
+        if (converged | stuck).all():
             break
     status[~converged] |= STATUS_FLAGS["large_deflection"]
     return qz

@@ -156,3 +156,23 @@ def test_the_step_by_step_march_is_the_periodic_one_with_nothing_added():
     fields = elastic._recover_numpy(model, qz, None, True)
     scale = np.abs(linear["bending_strain"].values).max()
     assert np.abs(fields["bending_strain"] - linear["bending_strain"].values).max() < 1e-5 * scale
+
+
+def test_a_diverging_iteration_keeps_its_last_finite_iterate(monkeypatch):
+    """An iterate that is no longer finite (as near buckling) is not returned: the case keeps
+    the one before, finite, and is flagged."""
+    calls = []
+    march = elastic.march_every_step
+
+    def failing(*args, **kwargs):
+        y = march(*args, **kwargs)
+        calls.append(1)
+        if len(calls) == 2:
+            y[:, -1] = np.inf
+        return y
+
+    monkeypatch.setattr(elastic, "march_every_step", failing)
+    ds = ced.simulate(watt_ii(LINEAR[:5] + ["elastic_axial_force", "damping"], 4, 256))
+    assert len(calls) == 2
+    assert int(ds["status"][0]) & STATUS_FLAGS["large_deflection"]
+    assert np.isfinite(ds["bending_strain"].values).all()
