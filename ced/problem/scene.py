@@ -494,8 +494,8 @@ def _spectral_allowed(scene: dict) -> None:
 def _elastic_axial_force_allowed(scene: dict) -> None:
     """``effects: [..., elastic_axial_force]`` adds the elastic response's axial force to the
     rigid motion's in the geometric stiffness (:mod:`ced.response.axial_force`): it needs that
-    geometric stiffness, a beam's axial strain, and a run whose steps it can iterate over (a
-    transient: its added force is not periodic)."""
+    geometric stiffness, a beam's axial strain, and the response at every step (a periodic
+    state by shooting, not a Fourier series)."""
     if "axial_stiffening" not in scene["effects"]:
         raise SceneError("effects", "elastic_axial_force adds to the geometric stiffness of "
                                     "axial_stiffening: list axial_stiffening too")
@@ -504,10 +504,14 @@ def _elastic_axial_force_allowed(scene: dict) -> None:
         raise SceneError("discretization.formulation",
                          f"elastic_axial_force needs a beam's axial strain: euler_bernoulli or "
                          f"timoshenko (got {disc['formulation']!r})")
-    if scene["time"]["start"] == "periodic":
-        raise SceneError("time.start", "elastic_axial_force is solved by iterating over the "
-                                       "steps of a transient: undeformed or quasi_static (got "
-                                       "'periodic')")
+    if scene["time"]["start"] == "periodic" and scene["time"]["revolutions"] < 1:
+        raise SceneError("time.revolutions", "elastic_axial_force from a periodic start forms "
+                                             "its force over a whole period: at least 1 (got "
+                                             f"{scene['time']['revolutions']})")
+    if scene["time"]["start"] == "periodic" and scene["time"]["periodic_solver"] != "shooting":
+        raise SceneError("time.periodic_solver", "elastic_axial_force iterates on the periodic "
+                                                 "state at every step: use shooting (got "
+                                                 f"{scene['time']['periodic_solver']!r})")
 
 
 def _normalize(raw: Any) -> dict:

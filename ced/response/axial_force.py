@@ -23,7 +23,8 @@ fixed-point iteration of the whole run (:func:`ced.response.elastic.elastic_resp
 Each iteration is a linear KED solve with the last iterate's N. The added force is not
 periodic, so its terms are evaluated step by step, a chunk at a time, and marched by the
 generic integrator. Memory stays bounded, but each iteration costs several times the
-periodic march of the linear solve.
+periodic march of the linear solve. From a periodic start the added force is periodic with the
+response: each iteration is then a periodic solve (shooting) with it.
 
 Rigid links keep the rigid motion's forces; the frozen modal analysis and the forced-resonance
 check keep N_rigid.
@@ -50,17 +51,23 @@ class ElasticAxialForce(NamedTuple):
     """The axial force added to each flexible link's geometric stiffness, on the step grid.
 
     ``step`` (case,) s; ``coefficients`` link -> (3, case, step) the (N0, N1, N2) of
-    N(s) = N0 + N1 s + N2 s², N (tension > 0), at steps 0, 1, … of ``step``.
+    N(s) = N0 + N1 s + N2 s², N (tension > 0), at steps 0, 1, … of ``step``. ``period``:
+    0 for a force over the run; P for a force periodic in P steps, given at steps 0 … P
+    (the last equal to the first).
     """
 
     step: np.ndarray
     coefficients: dict[str, np.ndarray]
+    period: int = 0
 
     def at(self, link: str, times: np.ndarray) -> np.ndarray:
         """(3, case, k) coefficients of ``link`` at ``times`` (case, k), s: linear between
-        steps, held beyond the last."""
+        steps; periodic, or held beyond the last step."""
         c = self.coefficients[link]
-        x = np.clip(np.asarray(times, float) / self.step[:, None], 0.0, c.shape[-1] - 1)
+        x = np.asarray(times, float) / self.step[:, None]
+        if self.period:
+            x = np.mod(x, self.period)
+        x = np.clip(x, 0.0, c.shape[-1] - 1)
         below = np.minimum(np.floor(x).astype(int), c.shape[-1] - 2)
         w = x - below
         rows = np.arange(c.shape[1])[:, None]

@@ -292,7 +292,8 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     """The response with the elastic axial force in the geometric stiffness (effect
     ``elastic_axial_force``, :mod:`ced.response.axial_force`): fixed-point iterations from the
     linear response ``qz`` (case, step, nz) over its ``period`` terms, each a solve of the whole
-    run with the last iterate's force, until the displacements change by less than
+    run with the last iterate's force (from a periodic start: of the periodic state, the force
+    periodic with it), until the displacements change by less than
     :data:`~ced.response.axial_force.TOLERANCE` of their largest value. A case still changing
     after :data:`~ced.response.axial_force.MAX_ITERATIONS`, or whose iterate is no longer
     finite, keeps its last finite iterate and is flagged ``large_deflection`` in ``status``:
@@ -302,14 +303,18 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
         return qz
     h, n_steps = batch.step_size, qz.shape[1] - 1
     steps = np.arange(n_steps + 1)
-    static = _expand(layout, period, _static(period)[:, steps % period.period], steps)
+    time_cfg = batch.scenes[0]["time"]
+    # From a periodic start the response, and so the added force, repeat every period: its
+    # steps 0 … P (the last equal to the first) are all the force needs.
+    periodic = period.period if time_cfg["start"] == "periodic" else 0
+    window = steps[:periodic + 1] if periodic else steps
+    static = _expand(layout, period, _static(period)[:, window % period.period], window)
     offsets, sizes = layout.link_offsets, layout.link_sizes
     static_strain = axial_strain(model.recovery, offsets, sizes, static)
     names = list(batch.topology.links)
     stiffness = {name: batch.link_property(name, "material", "E")
                  * batch.link_property(name, "section", "area") for name in model.recovery}
     length = {name: batch.link_lengths[:, names.index(name)] for name in model.recovery}
-    time_cfg = batch.scenes[0]["time"]
     q0 = np.zeros((batch.size, layout.ny, 1))
     v0 = np.zeros_like(q0)
     if time_cfg["start"] == "quasi_static":
@@ -317,13 +322,16 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     converged = np.zeros(batch.size, bool)
     stuck = np.zeros(batch.size, bool)  # an iterate no longer finite: kept at the last one
     for _ in range(MAX_ITERATIONS):
-        added = added_axial_force(axial_strain(model.recovery, offsets, sizes, qz),
+        added = added_axial_force(axial_strain(model.recovery, offsets, sizes, qz[:, window]),
                                   static_strain, stiffness, length, model.stations)
         iterate = dataclasses.replace(
-            model, elastic_axial_force=ElasticAxialForce(h, added),
+            model, elastic_axial_force=ElasticAxialForce(h, added, periodic),
             origin=None)  # its terms are its own: not those kept for the linear model
-        y = march_every_step(iterate, integrator_for(time_cfg), n_steps, q0, v0)
-        new = _expand(layout, period, y, steps)  # the projection is the rigid motion's
+        if periodic:  # the periodic state of the iterate, shot over its period's terms
+            new = _response(iterate, status.copy(), {}, full=False)[0]
+        else:
+            y = march_every_step(iterate, integrator_for(time_cfg), n_steps, q0, v0)
+            new = _expand(layout, period, y, steps)  # the projection is the rigid motion's
         # A diverging iteration (near buckling) keeps its last finite iterate, flagged below.
         stuck |= ~np.isfinite(new).all(axis=(1, 2))
         new[stuck] = qz[stuck]

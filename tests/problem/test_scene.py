@@ -97,7 +97,9 @@ def test_null_blocks_mean_defaults_and_null_values_are_errors():
      "list axial_stiffening too"),
     ({"discretization": {"formulation": "plane_stress"}}, "discretization.formulation",
      "euler_bernoulli or timoshenko"),
-    ({"time": {"start": "periodic"}}, "time.start", "undeformed or quasi_static"),
+    ({"time": {"start": "periodic", "periodic_solver": "spectral"}}, "time.periodic_solver",
+     "use shooting"),
+    ({"time": {"start": "periodic", "revolutions": 0.5}}, "time.revolutions", "at least 1"),
 ])
 def test_elastic_axial_force_is_refused_where_it_cannot_be_solved(change, key, words):
     effects = ["inertia", "elastic_inertia", "axial_stiffening", "elastic_axial_force"]
