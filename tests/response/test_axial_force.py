@@ -199,3 +199,15 @@ def test_the_periodic_state_is_where_a_damped_transient_settles():
     moved = np.abs(runs["linear"] - runs["periodic"]).max()
     assert moved > 5e-3 * scale  # the effect changes the periodic state ...
     assert np.abs(runs["transient"] - runs["periodic"]).max() < 0.01 * moved  # ... alike
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(finite, min_size=9, max_size=9), st.floats(1e-4, 1.0), st.integers(0, 5))
+def test_a_periodic_added_force_repeats_every_period(values, step, turns):
+    """Over P = 3 steps, given at steps 0 … 3 (the last equal to the first)."""
+    c = np.array(values).reshape(3, 1, 3)
+    c = np.concatenate([c, c[..., :1]], axis=-1)
+    force = ElasticAxialForce(np.array([step]), {"link": c}, period=3)
+    times = (np.array([[0.0, 1.0, 2.5]]) + 3 * turns) * step
+    expected = np.stack([c[..., 0], c[..., 1], 0.5 * (c[..., 2] + c[..., 0])], axis=-1)
+    assert np.allclose(force.at("link", times), expected, rtol=1e-9, atol=1e-7)
