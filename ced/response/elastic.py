@@ -296,8 +296,8 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     periodic with it), until the displacements change by less than
     :data:`~ced.response.axial_force.TOLERANCE` of their largest value. A case still changing
     after :data:`~ced.response.axial_force.MAX_ITERATIONS`, or whose iterate is no longer
-    finite, keeps its last finite iterate and is flagged ``large_deflection`` in ``status``:
-    its response is not small enough for the second-order model to hold."""
+    finite, keeps its linear response and is flagged ``large_deflection`` in ``status``: the
+    second-order model has no settled answer there."""
     batch, layout = model.batch, model.layout
     if not model.recovery:
         return qz
@@ -319,6 +319,7 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
     v0 = np.zeros_like(q0)
     if time_cfg["start"] == "quasi_static":
         q0, v0 = _quasi_static_start(model, h)
+    linear = qz
     converged = np.zeros(batch.size, bool)
     stuck = np.zeros(batch.size, bool)  # an iterate no longer finite: kept at the last one
     for _ in range(MAX_ITERATIONS):
@@ -339,6 +340,9 @@ def _with_elastic_axial_force(model: Model, status: np.ndarray, qz: np.ndarray,
         qz = new
         if (converged | stuck).all():
             break
+    # Unsettled: its iterates drift away, as in an undamped periodic state near resonance,
+    # where a small change of stiffness moves the response a lot. The linear response stands.
+    qz[~converged] = linear[~converged]
     status[~converged] |= STATUS_FLAGS["large_deflection"]
     return qz
 
