@@ -55,6 +55,7 @@ from .yaml_files import check_structure, load_yaml
 __all__ = [
     "SceneError",
     "load_scene",
+    "check_elastic_axial_force",
     "dump_scene",
     "scene_hash",
     "EFFECTS",
@@ -491,11 +492,17 @@ def _spectral_allowed(scene: dict) -> None:
                                                  "steps); give the discretization or use shooting")
 
 
-def _elastic_axial_force_allowed(scene: dict) -> None:
+def check_elastic_axial_force(scene: dict) -> None:
     """``effects: [..., elastic_axial_force]`` adds the elastic response's axial force to the
     rigid motion's in the geometric stiffness (:mod:`ced.response.axial_force`): it needs that
     geometric stiffness, a beam's axial strain, and the response at every step (a periodic
-    state by shooting, not a Fourier series)."""
+    state by shooting, not a Fourier series).
+
+    Raises
+    ------
+    SceneError
+        Naming the key that does not allow it.
+    """
     if "axial_stiffening" not in scene["effects"]:
         raise SceneError("effects", "elastic_axial_force adds to the geometric stiffness of "
                                     "axial_stiffening: list axial_stiffening too")
@@ -559,7 +566,7 @@ def _normalize(raw: Any) -> dict:
                                                     f"{scene['time']['periodic_solver']}); "
                                                     "leave it auto or drop it")
     if "elastic_axial_force" in scene["effects"]:
-        _elastic_axial_force_allowed(scene)
+        check_elastic_axial_force(scene)
     modal = raw.get("modal")
     scene["modal"] = None if modal is None else _block(modal, "modal", BLOCKS["modal"])
     scene["outputs"] = _block(raw.get("outputs"), "outputs", BLOCKS["outputs"])
