@@ -498,6 +498,12 @@ def check_elastic_axial_force(scene: dict) -> None:
     geometric stiffness, a beam's axial strain, and the response at every step (a periodic
     state by shooting, not a Fourier series).
 
+    Parameters
+    ----------
+    scene : dict
+        A scene whose ``effects`` list holds ``elastic_axial_force``, normalized but for
+        that check (its ``discretization`` a block or ``"auto"``).
+
     Raises
     ------
     SceneError
