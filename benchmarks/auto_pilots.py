@@ -101,7 +101,7 @@ def compare(start: str, repeat: int = 3) -> tuple[dict, dict]:
     return runs, last
 
 
-def peaks(setting: tuple[int, int, int], indices) -> tuple[np.ndarray, np.ndarray]:
+def peaks(setting: tuple, indices) -> tuple[np.ndarray, np.ndarray]:
     """Peak stress (Pa, over the links) and peak coupler strain at sweep.SPEEDS[indices]."""
     out = sweep.solve_batch(make_batch([sweep.scene(s, *setting)
                                         for s in sweep.SPEEDS[indices]]))

@@ -5,10 +5,12 @@ and are printed as they come. One process, one BLAS thread: this measures one co
 
 1. **Sweep at equal accuracy** (:mod:`sweep`): the reference flexible four-bar at 100 speeds,
    Ω = 90 … 110 rad/s, two revolutions from the undeformed state. ced's converged value
-   (16 elements, 8192 steps per revolution) at every speed, then every candidate setting
-   timed as one batch of the 100 cases; the cheapest whose peak coupler strain is within 1 %
-   of the converged value at every speed is ced's setting. The converged value is checked
-   against twice its steps per revolution at every fifth speed (``ced_reference.refinement``).
+   (16 elements, 8192 steps per revolution, ``time.dispersion: matched``) at every speed, then
+   every candidate setting timed as one batch of the 100 cases; the cheapest whose peak
+   coupler strain is within 1 % of the converged value at every speed is ced's setting. The
+   converged value is checked against the plain scheme at four times its steps per
+   revolution at every fifth speed, and so is the plain scheme at its steps
+   (``ced_reference.refinement``).
 2. **The peer in the same run** (``benchmarks/peer/``): Exudyn, installed from PyPI into its
    own venv by the benchmark, at its cheapest 1 %-setting — found by
    ``benchmarks/peer/compare.py`` against the peer's own converged value, stored in
@@ -67,24 +69,27 @@ def peer_at_chosen(search: bool) -> dict:
             "seconds_per_case": float(seconds.mean())}
 
 
-def reference_refinement(reference: np.ndarray, setting: tuple[int, int, int],
-                         stride: int = 5) -> dict:
-    """Is ced's converged value converged? It against twice its steps per revolution at every
-    ``stride``-th speed, and the cheapest setting's error against that finer value there."""
-    elements, modes, steps = sweep.CONVERGED
-    finer = (elements, modes, 2 * steps)
+def reference_refinement(reference: np.ndarray, setting: tuple, stride: int = 5) -> dict:
+    """Is ced's converged value converged? It against the plain scheme at four times its
+    steps per revolution at every ``stride``-th speed (a check that does not rely on the
+    matched dispersion), the plain scheme at the converged value's steps against the same,
+    and the cheapest setting's error against that finer value there."""
+    elements, modes, steps, _ = sweep.CONVERGED
+    finer = (elements, modes, 4 * steps, "plain")
     speeds = sweep.SPEEDS[::stride]
     fine, _ = sweep.peak_strain(finer, speeds=speeds)
+    plain, _ = sweep.peak_strain((elements, modes, steps, "plain"), speeds=speeds)
     cheap, _ = sweep.peak_strain(setting, speeds=speeds)
     return {"setting": list(finer), "speeds": len(speeds),
             "max_difference": float(np.abs(reference[::stride] / fine - 1.0).max()),
+            "plain_at_converged_steps_max_difference": float(np.abs(plain / fine - 1.0).max()),
             "cheapest_max_error_against_it": float(np.abs(cheap / fine - 1.0).max())}
 
 
-def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
+def estimate_cost(setting: tuple, size: int = 100) -> dict:
     """Wall time per case of ``simulate`` on the sweep with and without ``error_estimate`` at
     ``setting``, measured in this process, interleaved, best of two each."""
-    elements, modes, steps = setting
+    elements, modes, steps, dispersion = setting
     times = {False: np.inf, True: np.inf}
     for _ in range(2):  # interleaved, best of two: the load changes while it runs
         for flag in (False, True):
@@ -93,7 +98,7 @@ def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
                        "discretization": {"elements_per_link": elements,
                                           "modes_per_link": modes},
                        "time": {"revolutions": 2, "steps_per_revolution": steps,
-                                "start": "undeformed"}}
+                                "start": "undeformed", "dispersion": dispersion}}
                       for s in np.linspace(90.0, 110.0, size)]
             t0 = time.perf_counter()
             ds = simulate(scenes)
@@ -142,7 +147,8 @@ def main(argv=None) -> None:
     best = search["cheapest"]
     if best is None:
         raise SystemExit("no ced candidate is within 1 % at every speed")
-    setting = (best["elements_per_link"], best["modes_per_link"], best["steps_per_revolution"])
+    setting = (best["elements_per_link"], best["modes_per_link"], best["steps_per_revolution"],
+               best["dispersion"])
     log(f"ced cheapest: {setting}, {1e3 * best['seconds_per_case']:.2f} ms/case")
     results["ced_reference"]["refinement"] = reference_refinement(reference, setting)
     log(f"converged value against twice its steps: {results['ced_reference']['refinement']}")
