@@ -36,7 +36,7 @@ import math
 import numpy as np
 
 from .integrators import NewmarkFamily, amplification_matrix
-from .period_terms import PeriodTerms, with_sparsity
+from .period_terms import PeriodTerms
 
 __all__ = ["discrete_phase", "modified_omega_h", "mass_correction", "matched_terms",
            "RESOLVED"]
@@ -120,26 +120,36 @@ def mass_correction(mass: np.ndarray, stiffness: np.ndarray, h: np.ndarray,
     -------
     numpy.ndarray
         ΔM, shape (case, n, n), symmetric, M − ΔM positive definite; zero for a case whose
-        M is not positive definite or K not symmetric positive semi-definite in M's metric.
+        M is not positive definite. Modes with ω² ≤ 0 are left alone.
     """
-    ncase, n = mass.shape[0], mass.shape[-1]
-    out = np.zeros((ncase, n, n))
-    for c in range(ncase):  # a per-case eigenproblem of order n, once per solve
-        try:
-            L = np.linalg.cholesky(0.5 * (mass[c] + mass[c].T))
-        except np.linalg.LinAlgError:
-            continue
-        Linv = np.linalg.inv(L)
-        w2, V = np.linalg.eigh(Linv @ (0.5 * (stiffness[c] + stiffness[c].T)) @ Linv.T)
-        omega_h = np.sqrt(np.clip(w2, 0.0, None)) * h[c]
-        modified = modified_omega_h(scheme, omega_h)
-        use = np.isfinite(modified)
-        if not use.any():
-            continue
-        MPhi = L @ V[:, use]  # M̄φ_k for the M̄-normalized modes φ_k = L⁻ᵀv_k
-        shrink = 1.0 - (omega_h[use] / modified[use]) ** 2
-        out[c] = (MPhi * shrink) @ MPhi.T
+    mass = 0.5 * (mass + np.swapaxes(mass, -1, -2))
+    stiffness = 0.5 * (stiffness + np.swapaxes(stiffness, -1, -2))
+    out = np.zeros_like(mass)
+    definite = np.ones(len(mass), bool)
+    try:
+        L = np.linalg.cholesky(mass)
+    except np.linalg.LinAlgError:  # some case's M is not definite: those are left alone
+        definite = np.array([_definite(m) for m in mass], bool)
+        if not definite.any():
+            return out
+        L = np.linalg.cholesky(mass[definite])
+    Linv = np.linalg.inv(L)
+    w2, V = np.linalg.eigh(Linv @ stiffness[definite] @ np.swapaxes(Linv, -1, -2))
+    omega_h = np.sqrt(np.clip(w2, 0.0, None)) * np.asarray(h, float)[definite, None]
+    modified = modified_omega_h(scheme, omega_h)
+    with np.errstate(invalid="ignore"):
+        shrink = np.where(np.isfinite(modified), 1.0 - (omega_h / modified) ** 2, 0.0)
+    MPhi = L @ V  # M̄φ_k for the M̄-normalized modes φ_k = L⁻ᵀv_k
+    out[definite] = (MPhi * shrink[:, None, :]) @ np.swapaxes(MPhi, -1, -2)
     return out
+
+
+def _definite(matrix: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 def matched_terms(terms: PeriodTerms, h: np.ndarray, scheme: NewmarkFamily) -> PeriodTerms:
@@ -156,12 +166,12 @@ def matched_terms(terms: PeriodTerms, h: np.ndarray, scheme: NewmarkFamily) -> P
     Returns
     -------
     PeriodTerms
-        The same terms with ``mass`` replaced, dense and re-packed on its new sparsity.
+        The same terms with ``mass`` replaced, every matrix dense (M − ΔM is full).
     """
     M = terms.dense("mass")
     K = terms.dense("stiffness")
     correction = mass_correction(M.mean(axis=1), K.mean(axis=1), np.asarray(h, float), scheme)
-    matched = dataclasses.replace(
+    # M − ΔM is full: the step matrices are marched dense (a full pattern has no sparse order).
+    return dataclasses.replace(
         terms, mass=M - correction[:, None], damping=terms.dense("damping"), stiffness=K,
-        pattern=None, order=None)
-    return with_sparsity(matched)
+        pattern=np.ones((terms.n, terms.n), bool), order=None)

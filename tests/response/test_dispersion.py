@@ -96,8 +96,13 @@ def test_the_correction_is_second_order_and_keeps_the_mass_definite():
 
 
 def test_a_mass_that_is_not_definite_is_left_alone():
-    dM = mass_correction(np.zeros((1, 2, 2)), np.eye(2)[None], np.array([0.01]), newmark())
-    assert not dM.any()
+    M, K, _, _ = _chain()
+    h = np.array([0.01, 0.01])
+    dM = mass_correction(np.stack([np.zeros((3, 3)), M]), np.stack([K, K]), h, newmark())
+    assert not dM[0].any()
+    np.testing.assert_allclose(dM[1], mass_correction(M[None], K[None], h[:1], newmark())[0],
+                               rtol=1e-12)
+    assert dM[1].any()
 
 
 FOUR_BAR = {
