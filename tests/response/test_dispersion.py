@@ -153,3 +153,33 @@ def test_scene_refuses_matched_where_it_does_not_apply():
                     "time": {"dispersion": "matched"}})
     with pytest.raises(SceneError, match="time.dispersion"):
         load_scene({**FOUR_BAR, "time": {"dispersion": "exact"}})
+
+
+@pytest.mark.parametrize("modes", [0, 4])
+def test_the_matched_terms_stay_within_the_memory_the_solver_plans(modes):
+    # ced.simulation.size.solver_bytes plans 4n² a step more for a matched scene: the marched
+    # mass beside M, C and K read dense where they are held packed (the full mesh).
+    import tracemalloc
+
+    from ced.response.batch import make_batch
+    from ced.response.dispersion import matched_terms
+    from ced.response.model_cache import model_for
+    from ced.response.period_terms import period_terms
+    from ced.simulation.size import elastic_dofs, solver_bytes
+
+    scenes = [load_scene({**FOUR_BAR, "drive": {"speed": s},
+                          "discretization": {"elements_per_link": 8, "modes_per_link": modes},
+                          "time": {"steps_per_revolution": 128, "dispersion": d}})
+              for s in (90.0, 100.0, 110.0) for d in ("matched",)]
+    batch = make_batch(scenes)
+    period = period_terms(model_for(batch), batch.step_size, batch.period_steps)
+    n, steps = elastic_dofs(scenes[0]), 128
+    planned = solver_bytes(scenes[0]) - solver_bytes({**scenes[0], "time": {
+        **scenes[0]["time"], "dispersion": "plain"}})
+    assert planned == 8 * steps * 4 * n * n
+    tracemalloc.start()
+    matched = matched_terms(period, batch.step_size, generalized_alpha(0.9))
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert matched.mass.shape == (3, steps, period.n, period.n)
+    assert peak <= 3 * planned * 1.05  # three cases, and the small arrays of the modes
