@@ -11,16 +11,21 @@ modes at 0.6–5 kHz (ωh ≈ 0.2–2) are what keeps the peak strain from conve
 scheme is applied to a modified system M′ẍ + Cẋ + Kq = F whose modal masses are lowered so
 that the scheme's discrete frequency of each mode is its physical one: for a mode of
 frequency ω with ωh ≤ :data:`RESOLVED`, the modified frequency ω′ solves θ(ω′h) = ωh, and the
-mode's mass is scaled by (ω/ω′)². K, C and F are untouched, so the quasi-static response (all
-that the stiff, unresolved modes carry) is unchanged; M′ is symmetric positive definite, so
-the scheme stays unconditionally stable; and M′ − M = O(h²), so the scheme keeps its
-second order on the forced part of the response and converges to the same solution. This
-is the classical prewarping of the bilinear transform (Tustin's method), done per mode.
+mode's mass is scaled by m′ = (ω/ω′)². K, C and F are untouched, so the quasi-static response
+(all that the stiff, unresolved modes carry) is unchanged, and M′ − M = O(h²), so the scheme
+keeps its second order on the forced part of the response and converges to the same
+solution. This is the classical prewarping of the bilinear transform (Tustin's method), done
+per mode.
 
-The modes are those of the period's mean mass and stiffness (case by case: the correction
-is one constant matrix per case, ΔM = Σ (1 − m′_k) M̄φ_k φ_kᵀM̄ over the resolved modes with
-M̄-normalized φ_k). Where the matrices vary over the cycle, the correction is exact for the
-mean system and corrects the varying one to the first order of that variation.
+The modes are those of the frozen system at each step, M(t) and K(t), with M(t)-normalized
+shapes φ_k: the mass of each step is transformed by a congruence, M′(t) = T(t)ᵀ M(t) T(t) with
+T = I − Σ_k (1 − √m′_k) φ_k φ_kᵀ M(t), which scales each resolved mode's mass by m′_k and
+leaves the others alone; T is invertible, so M′ is positive definite wherever M is, and the
+scheme stays unconditionally stable. The modes are found at every step because they change
+over the cycle: one T from the period's mean system (a sixth of the cost) was right where
+only the coupler is flexible, but where every link is, the mass varies by 21 % over the cycle
+and the mean system's modes mix; there it was 25 % off at 1,024 steps per revolution, where
+the plain scheme is 2 % off and the per-step correction 0.15 %.
 
 Measured on the reference sweep (100 speeds, two revolutions from the undeformed state):
 16 elements at 8,192 steps per revolution are within 0.09 % of 32,768 steps with the plain
@@ -38,12 +43,15 @@ import numpy as np
 from .integrators import NewmarkFamily, amplification_matrix
 from .period_terms import PeriodTerms
 
-__all__ = ["discrete_phase", "modified_omega_h", "mass_correction", "matched_terms",
+__all__ = ["discrete_phase", "modified_omega_h", "mass_transform", "matched_terms",
            "RESOLVED"]
 
 #: Modes with ωh above this (fewer than three steps per period) are left as they are: they
 #: are not resolved by the steps whatever their phase.
 RESOLVED = 2.0 * math.pi / 3.0
+#: Steps whose modes are found at once, as a fraction of the period: the transforms and
+#: their temporaries (about 12 matrices a step) stay below one term's worth of memory.
+_BLOCKS = 16
 
 
 def discrete_phase(scheme: NewmarkFamily, omega_h) -> np.ndarray:
@@ -104,9 +112,9 @@ def modified_omega_h(scheme: NewmarkFamily, omega_h) -> np.ndarray:
                     np.maximum(out, omega_h), np.nan)
 
 
-def mass_correction(mass: np.ndarray, stiffness: np.ndarray, h: np.ndarray,
-                    scheme: NewmarkFamily) -> np.ndarray:
-    """ΔM with which M − ΔM marches every resolved mode of (M, K) at its own frequency.
+def mass_transform(mass: np.ndarray, stiffness: np.ndarray, h: np.ndarray,
+                   scheme: NewmarkFamily) -> np.ndarray:
+    """T with which Tᵀ M T marches every resolved mode of (M, K) at its own frequency.
 
     Parameters
     ----------
@@ -119,13 +127,15 @@ def mass_correction(mass: np.ndarray, stiffness: np.ndarray, h: np.ndarray,
     Returns
     -------
     numpy.ndarray
-        ΔM, shape (case, n, n), symmetric, M − ΔM positive definite; zero for a case whose
-        M is not positive definite. Modes with ω² ≤ 0 are left alone.
+        T = I − Σ_k (1 − √m′_k) φ_k φ_kᵀ M over the resolved modes (module docstring), shape
+        (case, n, n), invertible; the identity for a case whose M is not positive definite.
+        Modes with ω² ≤ 0 are left alone.
     """
     mass = 0.5 * (mass + np.swapaxes(mass, -1, -2))
     stiffness = 0.5 * (stiffness + np.swapaxes(stiffness, -1, -2))
-    out = np.zeros_like(mass)
-    definite = np.ones(len(mass), bool)
+    ncase, n = mass.shape[0], mass.shape[-1]
+    out = np.broadcast_to(np.eye(n), (ncase, n, n)).copy()
+    definite = np.ones(ncase, bool)
     try:
         L = np.linalg.cholesky(mass)
     except np.linalg.LinAlgError:  # some case's M is not definite: those are left alone
@@ -138,9 +148,10 @@ def mass_correction(mass: np.ndarray, stiffness: np.ndarray, h: np.ndarray,
     omega_h = np.sqrt(np.clip(w2, 0.0, None)) * np.asarray(h, float)[definite, None]
     modified = modified_omega_h(scheme, omega_h)
     with np.errstate(invalid="ignore"):
-        shrink = np.where(np.isfinite(modified), 1.0 - (omega_h / modified) ** 2, 0.0)
-    MPhi = L @ V  # M̄φ_k for the M̄-normalized modes φ_k = L⁻ᵀv_k
-    out[definite] = (MPhi * shrink[:, None, :]) @ np.swapaxes(MPhi, -1, -2)
+        shrink = np.where(np.isfinite(modified), 1.0 - omega_h / modified, 0.0)
+    # φ_k = L⁻ᵀ v_k (M-normalized) and φ_kᵀ M = v_kᵀ Lᵀ: T = I − L⁻ᵀ V diag(1 − √m′) Vᵀ Lᵀ.
+    Phi = np.swapaxes(Linv, -1, -2) @ V
+    out[definite] -= (Phi * shrink[:, None, :]) @ np.swapaxes(L @ V, -1, -2)
     return out
 
 
@@ -153,7 +164,8 @@ def _definite(matrix: np.ndarray) -> bool:
 
 
 def matched_terms(terms: PeriodTerms, h: np.ndarray, scheme: NewmarkFamily) -> PeriodTerms:
-    """``terms`` with the dispersion-matched mass M(t) − ΔM (module docstring).
+    """``terms`` with the dispersion-matched mass T(t)ᵀ M(t) T(t) at every step (module
+    docstring).
 
     Parameters
     ----------
@@ -166,12 +178,23 @@ def matched_terms(terms: PeriodTerms, h: np.ndarray, scheme: NewmarkFamily) -> P
     Returns
     -------
     PeriodTerms
-        The same terms with ``mass`` replaced, every matrix dense (M − ΔM is full).
+        The same terms with ``mass`` replaced, every matrix dense (Tᵀ M T is full).
     """
     M = terms.dense("mass")
     K = terms.dense("stiffness")
-    correction = mass_correction(M.mean(axis=1), K.mean(axis=1), np.asarray(h, float), scheme)
-    # M − ΔM is full: the step matrices are marched dense (a full pattern has no sparse order).
+    ncase, period, n = M.shape[:3]
+    h = np.asarray(h, float)
+    matched = np.empty_like(M)
+    block = max(1, period // _BLOCKS)
+    for first in range(0, period, block):  # T is held for a block of steps only
+        steps = slice(first, min(first + block, period))
+        m, k = M[:, steps].reshape(-1, n, n), K[:, steps].reshape(-1, n, n)
+        count = m.shape[0] // ncase
+        T = mass_transform(m, k, np.repeat(h, count), scheme)  # rows: case-major
+        transformed = np.swapaxes(T, -1, -2) @ m @ T
+        matched[:, steps] = (0.5 * (transformed + np.swapaxes(transformed, -1, -2))).reshape(
+            ncase, count, n, n)  # symmetric to the last bit
+    # Tᵀ M T is full: the step matrices are marched dense (a full pattern has no sparse order).
     return dataclasses.replace(
-        terms, mass=M - correction[:, None], damping=terms.dense("damping"), stiffness=K,
+        terms, mass=matched, damping=terms.dense("damping"), stiffness=K,
         pattern=np.ones((terms.n, terms.n), bool), order=None)

@@ -107,7 +107,7 @@ def elastic_dofs(scene: dict) -> int:
 def solver_bytes(scene: dict) -> int:
     """Working arrays of the solver for one case beyond its outputs, bytes: the system over
     one period (:mod:`ced.response.period_terms`: M, C, K, their step factorizations and the
-    projection, 8·P·(5n² + n) for P steps per period and n DOFs, 8·P·(9n² + n) with
+    projection, 8·P·(5n² + n) for P steps per period and n DOFs, 8·P·(10n² + n) with
     ``time.dispersion: matched``, its marched mass beside the terms read dense; two turns'
     worth for a change point, whose motion may repeat only every two,
     :attr:`ced.response.batch.Batch.motion_turns`); the modal analysis holds K
@@ -134,8 +134,9 @@ def solver_bytes(scene: dict) -> int:
     shooting = scene["time"]["start"] == "periodic"
     turns = max(MOTION_TURNS) if case_family(scene) == "change_point" else 1
     # time.dispersion: matched holds the marched mass beside the physical terms, which it
-    # reads dense (ced.response.dispersion): 4n² more at worst (M, C, K unpacked and M − ΔM).
-    matrices = 9 if scene["time"].get("dispersion") == "matched" else 5
+    # reads dense (ced.response.dispersion): 5n² more at worst (M, C, K unpacked, the
+    # matched mass and the per-step transforms of a block of steps).
+    matrices = 10 if scene["time"].get("dispersion") == "matched" else 5
     period = 8 * turns * scene["time"]["steps_per_revolution"] * (matrices * n * n + n)
     history = 16 * (step_count(scene) + 1) * n if scene["outputs"]["every"] > 1 else 0
     return period + history + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
