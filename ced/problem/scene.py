@@ -74,9 +74,6 @@ EFFECTS = ("inertia", "elastic_inertia", "gravity", "coriolis", "centrifugal",
 DEFAULT_EFFECTS = ["inertia", "elastic_inertia", "coriolis", "centrifugal", "axial_stiffening"]
 FORMULATIONS = ("euler_bernoulli", "timoshenko", "seed_lame", "plane_stress", "rigid")
 INTEGRATORS = ("newmark", "hht", "generalized_alpha", "houbolt")
-#: ``time.dispersion``: the scheme's own period error, or every resolved mode's period exact
-#: (:mod:`ced.response.dispersion`).
-DISPERSIONS = ("plain", "matched")
 STARTS = ("undeformed", "quasi_static", "periodic")
 PERIODIC_SOLVERS = ("shooting", "spectral")
 MECHANISM_TYPES = ("four_bar", "slider_crank", "single_link", "watt_ii", "stephenson_iii",
@@ -168,7 +165,6 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
         "alpha": (Real(low=-1.0 / 3.0, high=0.0), -0.05),
         "start": (Choice(STARTS), "undeformed"),
         "periodic_solver": (Choice(PERIODIC_SOLVERS), "shooting"),
-        "dispersion": (Choice(DISPERSIONS), "plain"),
         "collocation_points": (AutoOr(Int(8, 4096, even=True)), AUTO),
     },
     "modal": {
@@ -290,11 +286,6 @@ MEANINGS: dict[str, str] = {
                             "integrator over one period, exact for its steps) or spectral "
                             "(Fourier collocation, as many harmonics as the response needs; "
                             "the steps set the output instants and the Floquet analysis)",
-    "time.dispersion": "plain: the integrator's own period error (its modes vibrate slower "
-                       "than they should, by (ωh)²/12 for the trapezoidal rule); matched: "
-                       "each mode resolved by the steps (at least three a period) vibrates at "
-                       "its own frequency (the mass is prewarped per mode; Newmark family "
-                       "only)",
     "time.collocation_points": "Fourier collocation points per input period with "
                                "periodic_solver: spectral: auto (from 32, doubled up to 256 "
                                "while the spectral tail exceeds 0.5 % of the peak stress) or a "
@@ -480,9 +471,6 @@ def _gravity(value: Any) -> list[float]:
 def _time(value: Any) -> dict:
     block = _block(value, "time", BLOCKS["time"])
     _unused_parameters(block, "time")
-    if block["dispersion"] == "matched" and block["integrator"] == "houbolt":
-        raise SceneError("time.dispersion", "matched needs a Newmark-family integrator "
-                                            "(newmark, hht or generalized_alpha; got houbolt)")
     total = block["revolutions"] * block["steps_per_revolution"]
     if not (math.isfinite(total) and 1 <= round(total) <= MAX_TOTAL_STEPS):
         raise SceneError("time.revolutions", f"revolutions × steps_per_revolution = {total:g} "
@@ -508,7 +496,7 @@ def check_elastic_axial_force(scene: dict) -> None:
     """``effects: [..., elastic_axial_force]`` adds the elastic response's axial force to the
     rigid motion's in the geometric stiffness (:mod:`ced.response.axial_force`): it needs that
     geometric stiffness, a beam's axial strain, and the response at every step (a periodic
-    state by shooting, not a Fourier series), marched with the integrator's own dispersion.
+    state by shooting, not a Fourier series).
 
     Parameters
     ----------
@@ -537,12 +525,6 @@ def check_elastic_axial_force(scene: dict) -> None:
         raise SceneError("time.periodic_solver", "elastic_axial_force iterates on the periodic "
                                                  "state at every step: use shooting (got "
                                                  f"{scene['time']['periodic_solver']!r})")
-    if scene["time"]["dispersion"] == "matched":
-        # Its iterations from a start transient march terms step by step, not the period's
-        # terms the matched mass is formed from.
-        raise SceneError("time.dispersion", "elastic_axial_force marches with the "
-                                            "integrator's own dispersion: use plain (got "
-                                            "'matched')")
 
 
 def _normalize(raw: Any) -> dict:

@@ -27,7 +27,6 @@ from .axial_force import (MAX_ITERATIONS, TOLERANCE, ElasticAxialForce, added_ax
                           axial_strain, relative_change)
 from .batch import Batch
 from .collocation import SpectralSteadyState, spectral_steady_state
-from .dispersion import matched_terms
 from .frequencies import buckled, check_modes, cycle_frequencies, modal_phases
 from .integrators import (forced_columns, from_independent, integrator_for, march,
                           stability_limit, start)
@@ -234,11 +233,7 @@ def _response(model: Model, status: np.ndarray, result: dict, full: bool = True,
         return qz_static, qz_static, period
     scheme = integrator_for(time_cfg)
     _check_stable_step(model, stability_limit(scheme))
-    # The march's terms: the mass prewarped where every resolved mode is to keep its period
-    # (the quasi-static response and the resonance check above use the physical terms).
-    marched = (matched_terms(period, h, scheme) if time_cfg["dispersion"] == "matched"
-               else period)
-    marcher = Marcher(scheme, marched, h)
+    marcher = Marcher(scheme, period, h)
     terms = marcher.columns(1)
     state = None
     one_period = None

@@ -107,9 +107,8 @@ def elastic_dofs(scene: dict) -> int:
 def solver_bytes(scene: dict) -> int:
     """Working arrays of the solver for one case beyond its outputs, bytes: the system over
     one period (:mod:`ced.response.period_terms`: M, C, K, their step factorizations and the
-    projection, 8·P·(5n² + n) for P steps per period and n DOFs, 8·P·(10n² + n) with
-    ``time.dispersion: matched``, its marched mass beside the terms read dense; two turns'
-    worth for a change point, whose motion may repeat only every two,
+    projection, 8·P·(5n² + n) for P steps per period and n DOFs: two turns' worth for a
+    change point, whose motion may repeat only every two,
     :attr:`ced.response.batch.Batch.motion_turns`); the modal analysis holds K
     and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
     3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns. With
@@ -133,11 +132,7 @@ def solver_bytes(scene: dict) -> int:
     modal = scene.get("modal") or {"angles": 0}
     shooting = scene["time"]["start"] == "periodic"
     turns = max(MOTION_TURNS) if case_family(scene) == "change_point" else 1
-    # time.dispersion: matched holds the marched mass beside the physical terms, which it
-    # reads dense (ced.response.dispersion): 5n² more at worst (M, C, K unpacked, the
-    # matched mass and the per-step transforms of a block of steps).
-    matrices = 10 if scene["time"].get("dispersion") == "matched" else 5
-    period = 8 * turns * scene["time"]["steps_per_revolution"] * (matrices * n * n + n)
+    period = 8 * turns * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
     history = 16 * (step_count(scene) + 1) * n if scene["outputs"]["every"] > 1 else 0
     return period + history + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
 
