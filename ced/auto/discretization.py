@@ -86,16 +86,24 @@ from ..problem.scene import dump_scene
 from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
+           "MODE_CHOICES", "choose_shared",
            "choose", "cost", "sweeps", "representatives", "bracket", "unverified", "MODES",
            "SAFETY", "STRIDE", "INTERPOLATION_MARGIN"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
 
-#: Fixed-interface modes per flexible link of a reduced model.
-MODES = 4
-#: Interior DOFs of a reduced link: MODES modes plus the static load vectors.
-REDUCED_DOFS = MODES + 5
+#: Fixed-interface modes per flexible link a reduced model may keep; the full mesh (0) is the
+#: third choice. Their truncation is measured against the full mesh per climber (module
+#: docstring, stage 3).
+MODE_CHOICES = (4, 8)
+#: Modes per flexible link of the ladders' reduced model: the most a choice keeps, so that the
+#: ladders see (and, from a start transient, resolve) every mode a chosen model has.
+MODES = max(MODE_CHOICES)
+#: Interior DOFs of a reduced link beyond its modes: the static load vectors.
+STATIC_VECTORS = 5
+#: Interior DOFs of the reduced link :data:`COST` was fitted at (4 modes).
+_FITTED_DOFS = 4 + STATIC_VECTORS
 #: Elements per link of the time ladder.
 LADDER_ELEMENTS = 8
 #: First rung of the time ladder, and the fewest steps per revolution chosen: 8 steps per
@@ -106,6 +114,12 @@ MAX_LADDER_STEPS, MAX_LADDER_ELEMENTS = 4096, 128
 #: A mode below this crank harmonic can be resonantly excited: the time ladder resolves it,
 #: ω₁h ≤ RESOLVED (the asymptotic range of the integrators, as in ``ced.auto.error_estimate``).
 RESONANT_HARMONICS, RESOLVED = 16, 0.5
+#: A ladder is in its asymptotic range where its last two changes fall at an observed order
+#: within these of the theoretical one (the space ladder's 2 to 3 included); only then is its
+#: limit extrapolated. From a start transient the ringing modes' phases wrap between rungs
+#: (the benchmark sweep's peak stress moves by up to 1.6 % between 1,024 and 8,192 steps per
+#: revolution, erratically), and a Richardson correction there under-states the error.
+ASYMPTOTIC_ORDERS = (-1.0, 1.5)
 #: Predicted error must be below tolerance / SAFETY. The rungs' errors are measured against
 #: each ladder's extrapolated limit, which is itself uncertain by up to the last rung's error
 #: (at most tolerance / (2 SAFETY)): the margin covers the two.
@@ -133,24 +147,45 @@ COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.01
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
 
-def _pilot(scene: dict, elements: int, steps: int) -> dict:
+def _pilot(scene: dict, elements: int, steps: int, modes: int = MODES) -> dict:
     # The blocks it changes are new, the others shared: normalized scenes are never changed
     # in place, and a deep copy of each of a sweep's 355 pilots was 13 % of their time.
+    # The full mesh where a reduced link would be no smaller (it keeps every mode).
+    modes = modes if _reduced_allowed(elements, modes) else 0
     time = {**scene["time"], "steps_per_revolution": steps}
     if time["start"] == "periodic" and time["revolutions"] >= 1.0:
         time["revolutions"] = 1.0  # the periodic state: one revolution has every peak
     return {**scene, "time": time, "modal": None,
             "discretization": {"formulation": "euler_bernoulli", "elements_per_link": elements,
-                               "elements_across": 2, "modes_per_link": MODES},
+                               "elements_across": 2, "modes_per_link": modes},
             "outputs": {**scene["outputs"], "every": 1, "error_estimate": False}}
 
 
-def _full_allowed(elements):
-    """The full mesh is no larger than the reduced basis up to 4 elements (3n_e − 3 DOFs)."""
-    return 3 * np.asarray(elements) - 3 <= REDUCED_DOFS
+def _reduced_allowed(elements, modes: int = MODES):
+    """A reduced link is smaller than the full mesh (3n_e − 3 interior DOFs)."""
+    return 3 * np.asarray(elements) - 3 > modes + STATIC_VECTORS
 
 
-def cost(elements, steps, revolutions: float, flexible_links: int):
+def _full_cost(elements, steps, revolutions: float, flexible_links: int) -> np.ndarray:
+    """Modelled solve time per case of the full mesh, ms (:data:`COST`)."""
+    ne = np.asarray(elements, float)
+    return COST["case"] + flexible_links * np.asarray(steps, float) * revolutions * (
+        COST["step_full"] + COST["step_full_dof"] * (3.0 * ne - 3.0))
+
+
+def _reduced_cost(elements, steps, revolutions: float, flexible_links: int,
+                  modes: int = MODES) -> np.ndarray:
+    """Modelled solve time per case of the reduced model, ms, infinite where it is no smaller
+    than the full mesh; its per-step cost, fitted at :data:`MODES`, scaled by its DOFs."""
+    ne = np.asarray(elements, float)
+    per_step = COST["step_reduced"] * (modes + STATIC_VECTORS) / _FITTED_DOFS
+    reduced = COST["case"] + flexible_links * (
+        COST["reduction"] * (ne / 128.0) ** 2
+        + per_step * np.asarray(steps, float) * revolutions)
+    return np.where(_reduced_allowed(ne, modes), reduced, np.inf)
+
+
+def cost(elements, steps, revolutions: float, flexible_links: int, modes: int = MODES):
     """Modelled solve time per case, ms, and whether the full mesh is the cheaper model.
 
     Parameters
@@ -161,23 +196,19 @@ def cost(elements, steps, revolutions: float, flexible_links: int):
         Simulated input periods.
     flexible_links : int
         Number of flexible links of the scene.
+    modes : int
+        Modes per link of the reduced model.
 
     Returns
     -------
     cost : ndarray
-        ms per case (:data:`COST`).
+        ms per case (:data:`COST`), of the cheaper of the full and the reduced model.
     full : ndarray of bool
         True where the full mesh is cheaper than the reduced one.
     """
-    ne = np.asarray(elements, float)
-    steps = np.asarray(steps, float) * revolutions
-    reduced = COST["case"] + flexible_links * (
-        COST["reduction"] * (ne / 128.0) ** 2 + COST["step_reduced"] * steps)
-    full = COST["case"] + flexible_links * steps * (
-        COST["step_full"] + COST["step_full_dof"] * (3.0 * ne - 3.0))
-    reduced = np.where(3 * ne - 3 >= REDUCED_DOFS, reduced, np.inf)
-    full = np.where(_full_allowed(ne), full, np.inf)
-    return np.minimum(reduced, full), full < reduced
+    full = _full_cost(elements, steps, revolutions, flexible_links)
+    reduced = _reduced_cost(elements, steps, revolutions, flexible_links, modes)
+    return np.minimum(reduced, full), full <= reduced
 
 
 def ladder_errors(peaks, order: float = TIME_ORDER) -> np.ndarray:
@@ -193,20 +224,40 @@ def ladder_errors(peaks, order: float = TIME_ORDER) -> np.ndarray:
     Returns
     -------
     ndarray
-        |σ_k − σ_∞|/|σ_∞| with σ_∞ Richardson-extrapolated from the last two rungs; the last
+        Where the last three rungs converge at about ``order`` (:data:`ASYMPTOTIC_ORDERS`),
+        |σ_k − σ_∞|/|σ_∞| with σ_∞ Richardson-extrapolated from the last two rungs, the last
         rung's the larger of its Richardson correction and the previous one's divided by
-        2^order; non-increasing under refinement (module docstring, stage 3).
+        2^order. Elsewhere the ladder is not in its asymptotic range and earns no
+        extrapolation: the last rung's error is the larger of its own change and the previous
+        one's divided by 2^order, and another rung's its distance to the last plus that.
+        Non-increasing under refinement (module
+        docstring, stage 3).
     """
     sigma = np.asarray(peaks, float)
+    last, previous = abs(sigma[-1] - sigma[-2]), abs(sigma[-2] - sigma[-3])
     ratio = 2.0**order - 1.0
-    limit = sigma[-1] + (sigma[-1] - sigma[-2]) / ratio
-    error = np.abs(sigma - limit)
-    error[-1] = max(abs(sigma[-1] - sigma[-2]) / ratio,
-                    abs(sigma[-2] - sigma[-3]) / (ratio * 2.0**order))
+    if _asymptotic(previous, last, order):
+        limit = sigma[-1] + (sigma[-1] - sigma[-2]) / ratio
+        error = np.abs(sigma - limit)
+        error[-1] = max(last / ratio, previous / (ratio * 2.0**order))
+    else:  # σ_K is no limit: a rung errs by its distance to σ_K plus σ_K's own error
+        limit = sigma[-1]
+        error = np.abs(sigma - limit)
+        error[-1] = max(last, previous / 2.0**order)
+        error[:-1] += error[-1]
     error = np.maximum.accumulate(error[::-1])[::-1]
     if limit == 0.0:  # extrapolated to zero: a relative error is unbounded unless there is none
         return np.where(error == 0.0, 0.0, np.inf)
     return error / abs(limit)
+
+
+def _asymptotic(previous: float, last: float, order: float) -> bool:
+    """Whether two successive changes of a ladder fall at an observed order within
+    :data:`ASYMPTOTIC_ORDERS` of ``order`` (both zero: converged)."""
+    if last == 0.0:
+        return previous == 0.0
+    low, high = (2.0 ** (order + shift) for shift in ASYMPTOTIC_ORDERS)
+    return low <= previous / last <= high
 
 
 def interpolate(levels, errors, at, order: float = TIME_ORDER,
@@ -276,8 +327,8 @@ def predicted_error(space: tuple, time: tuple, elements, steps) -> np.ndarray:
 
 
 def choose(space: tuple, time: tuple, tolerance: float, revolutions: float,
-           flexible_links: int) -> tuple[int, int, float, bool]:
-    """The cheapest (elements, steps per revolution) meeting the tolerance.
+           flexible_links: int, truncation: dict[int, float]) -> tuple[int, int, int, float]:
+    """The cheapest (elements, steps per revolution, modes per link) meeting the tolerance.
 
     Parameters
     ----------
@@ -290,27 +341,71 @@ def choose(space: tuple, time: tuple, tolerance: float, revolutions: float,
         Simulated input periods.
     flexible_links : int
         Number of flexible links.
+    truncation : dict of int to float
+        Relative error on peak stress of a reduced model keeping each of
+        :data:`MODE_CHOICES` modes per link, measured against the full mesh; it adds to the
+        discretization error (the full mesh, 0 modes, has none).
 
     Returns
     -------
-    elements, steps, predicted error, and whether the full mesh is the cheaper model. Where no
-    setting of the grid is predicted to meet the target, the ladders' finest rungs (measured,
-    not extrapolated), with their predicted error.
+    elements, steps, modes (0: the full mesh) and the predicted error. Where no setting of the
+    grid is predicted to meet the target, the ladders' finest rungs (measured, not
+    extrapolated), with the least truncated reduced model (or the full mesh where it is
+    cheaper), and their predicted error.
+    """
+    return choose_shared([(space, time, truncation)], tolerance, revolutions, flexible_links)
+
+
+def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
+                  flexible_links: int) -> tuple[int, int, int, float]:
+    """:func:`choose` for several cases at once: the cheapest setting at which every one of
+    them is predicted to meet the tolerance, and the largest of their predicted errors there.
+
+    Parameters
+    ----------
+    ladders : list of (space, time, truncation)
+        Each case's ladders and truncation errors, as for :func:`choose`.
+    tolerance : float or array_like
+        Target relative error on peak stress, of all cases or of each.
+    revolutions, flexible_links
+        As for :func:`choose`.
+
+    Returns
+    -------
+    elements, steps, modes (0: the full mesh) and the largest predicted error. Where no
+    setting meets the target, the finest rungs of any of the ladders.
     """
     # Within the ladders: they climb until their finest rungs meet the target with room to
     # spare, so a setting beyond them is only wanted where they did not converge.
-    steps = np.arange(FIRST_STEPS, int(time[0][-1]) + 1, 8)
-    elements = _ELEMENTS[_ELEMENTS <= space[0][-1]]
-    predicted = predicted_error(space, time, elements[:, None], steps[None, :])
-    model_cost, full = cost(elements[:, None], steps[None, :], revolutions, flexible_links)
-    model_cost = np.where(predicted <= tolerance / SAFETY, model_cost, np.inf)
-    if np.isfinite(model_cost).any():
+    steps = np.arange(FIRST_STEPS, int(max(t[0][-1] for _, t, _ in ladders)) + 1, 8)
+    elements = _ELEMENTS[_ELEMENTS <= max(x[0][-1] for x, _, _ in ladders)]
+    discretization = np.array([predicted_error(x, t, elements[:, None], steps[None, :])
+                               for x, t, _ in ladders])
+    bar = np.broadcast_to(np.asarray(tolerance, float), (len(ladders),)) / SAFETY
+    best = (np.inf, None)
+    for modes in (0,) + tuple(MODE_CHOICES):
+        model_cost = (_reduced_cost(elements[:, None], steps[None, :], revolutions,
+                                    flexible_links, modes) if modes else
+                      _full_cost(elements[:, None], steps[None, :], revolutions,
+                                 flexible_links))
+        cut = np.array([cut[modes] if modes else 0.0 for _, _, cut in ladders])
+        each = discretization + cut[:, None, None]
+        model_cost = np.where((each <= bar[:, None, None]).all(axis=0), model_cost, np.inf)
+        predicted = each.max(axis=0)
         i, j = np.unravel_index(np.argmin(model_cost), model_cost.shape)
-        return int(elements[i]), int(steps[j]), float(predicted[i, j]), bool(full[i, j])
-    elements, steps = int(space[0][-1]), int(time[0][-1])
-    predicted = float(space[1][-1] + time[1][-1])
-    return elements, steps, predicted, bool(cost(elements, steps, revolutions,
-                                                 flexible_links)[1])
+        if model_cost[i, j] < best[0]:
+            best = (model_cost[i, j], (int(elements[i]), int(steps[j]), modes,
+                                       float(predicted[i, j])))
+    if best[1] is not None:
+        return best[1]
+    elements = int(max(x[0][-1] for x, _, _ in ladders))
+    steps = int(max(t[0][-1] for _, t, _ in ladders))
+    finest = np.array([predicted_error(x, t, elements, steps) for x, t, _ in ladders])
+    modes = min(MODE_CHOICES, key=lambda m: max(cut[m] for _, _, cut in ladders))
+    if bool(cost(elements, steps, revolutions, flexible_links, modes)[1]):
+        return elements, steps, 0, float(finest.max())
+    cut = np.array([cut[modes] for _, _, cut in ladders])
+    return elements, steps, modes, float((finest + cut).max())
 
 
 def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[list, list]],
@@ -348,7 +443,8 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
            resolved_at: np.ndarray, budget: list[float]) -> list[_Climbed]:
     """Stages 1–2 of the module docstring for each scene, batched across them: the time ladder
     from its first rung (``first_peaks``, solved with the modal analysis), then the space
-    ladder at the coarsest time rung within the tolerance (else the finest)."""
+    ladder at the coarsest time rung within the tolerance that resolves what the time ladder
+    had to (else the finest)."""
     known = [{0: peak} for peak in first_peaks]
     n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
 
@@ -365,7 +461,7 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
 
     space_steps = []
     for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
-        within = np.flatnonzero(errors <= work[j]["tolerance"])
+        within = np.flatnonzero((errors <= work[j]["tolerance"]) & (levels >= resolved_at[j]))
         space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
     rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
     at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
@@ -381,6 +477,23 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
                      (levels, errors), steps)
             for sp, levels, errors, steps in zip(space_peaks, time_levels, time_errors,
                                                  space_steps)]
+
+
+def _truncation(work: list[dict], solve: Callable, steps: int) -> list[dict[int, float]]:
+    """Per scene the relative error on peak stress of a reduced model with each of
+    :data:`MODE_CHOICES` modes per link against the full mesh, both at
+    :data:`LADDER_ELEMENTS` and ``steps`` per revolution (module docstring, stage 3)."""
+    modes = (0,) + tuple(MODE_CHOICES)
+    pilots = [_pilot(scene, LADDER_ELEMENTS, steps, m) for m in modes for scene in work]
+    peaks = np.asarray(solve(pilots)["peak"], float).reshape(len(modes), len(work))
+    full = peaks[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        errors = np.where(full == 0.0, np.where(peaks[1:] == 0.0, 0.0, np.inf),
+                          np.abs(peaks[1:] - full) / np.abs(full))
+    # A failed pilot (NaN) leaves an infinite truncation: that model is never chosen.
+    errors = np.where(np.isnan(errors), np.inf, errors)
+    return [{m: float(errors[k, j]) for k, m in enumerate(MODE_CHOICES)}
+            for j in range(len(work))]
 
 
 def _pilot_key(scene: dict) -> str:
@@ -521,9 +634,11 @@ def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
                                "elements_across": 2, "modes_per_link": modes}}
 
 
-def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
-    elements, steps, predicted, _ = choice
-    return {"own_choice": [elements, steps], "own_predicted_error": predicted,
+def _ladder_report(climbed: _Climbed, choice: tuple, truncation: tuple[int, dict]) -> dict:
+    elements, steps, modes, predicted = choice
+    return {"own_choice": [elements, steps, modes], "own_predicted_error": predicted,
+            "truncation": {str(m): e for m, e in truncation[1].items()},
+            "truncation_steps_per_revolution": truncation[0],
             "time_ladder": [[int(n), float(e)] for n, e in zip(*climbed.time)],
             "space_ladder": [[int(n), float(e)] for n, e in zip(*climbed.space)],
             "space_ladder_steps_per_revolution": climbed.space_steps}
@@ -566,36 +681,54 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     budget = [s["tolerance"] / (2.0 * SAFETY) for s in work]
 
     # Stage 1's first rung for every distinct case, with the frozen modal analysis: each case's
-    # own first frequency decides what its time ladder would have to resolve.
+    # own frequencies decide what its time ladder would have to resolve.
+    transient = np.array([s["time"]["start"] != "periodic" for s in work])
     first = [_pilot(s, LADDER_ELEMENTS, FIRST_STEPS) for s in work]
-    for s in first:
-        s["modal"] = {"modes": 1, "angles": 4, "mode_shapes": False}
+    for s, rings in zip(first, transient):
+        s["modal"] = {"modes": MODES * _flexible_links(s) if rings else 1, "angles": 4,
+                      "mode_shapes": False}
     solved = solve(first)
-    omega1, speed = solved["omega1"], solved["speed"]
+    omega1, omega_top, speed = solved["omega1"], solved["omega_top"], solved["speed"]
     first_peaks = [float(peak) for peak in solved["peak"]]
-    # The time ladder must resolve a mode the crank harmonics can excite (ω₁h ≤ 1/2).
+    # The time ladder must resolve (ωh ≤ 1/2) a mode the crank harmonics can excite and, from
+    # a start transient, every mode of the ladders' model: the start rings in all of them, and
+    # rungs that damp them numerically agree without converging.
     excited = omega1 <= RESONANT_HARMONICS * speed
-    resolved_at = np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0)
+    resolved_at = np.where(transient, 2.0 * np.pi * omega_top / speed / RESOLVED,
+                           np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0))
 
     # Stage 5: sweeps climb from representatives; gaps that cannot be trusted are bisected.
     groups = sweeps([_sweep_key(s) for s in work], [s["drive"]["speed"] for s in work])
     climbed = [set(g[representatives(len(g), stride)].tolist()) for g in groups]
     ladders: dict[int, _Climbed] = {}
+    truncation: dict[int, tuple[int, dict]] = {}  # climber → (steps measured at, errors)
     choices: dict[int, tuple] = {}
     while True:
         new = sorted(j for c in climbed for j in c if j not in ladders)
-        for j, ladder in zip(new, _climb([work[j] for j in new], solve,
-                                         [first_peaks[j] for j in new], resolved_at[new],
-                                         [budget[j] for j in new])):
-            ladders[j] = ladder
+        ladders.update(zip(new, _climb([work[j] for j in new], solve,
+                                       [first_peaks[j] for j in new], resolved_at[new],
+                                       [budget[j] for j in new])))
+        # Stage 3: the truncation at the finest steps any ladder reached, which no choice
+        # exceeds: coarser steps damp the modes left out, and would hide it.
+        top = int(max(ladder.time[0][-1] for ladder in ladders.values()))
+        stale = [j for j in ladders if j not in truncation or truncation[j][0] < top]
+        if stale:
+            truncation.update(zip(stale, ((top, cut) for cut in _truncation(
+                [work[j] for j in stale], solve, top))))
+        for j, ladder in ladders.items():
             choices[j] = choose(ladder.space, ladder.time, work[j]["tolerance"],
-                                work[j]["time"]["revolutions"], _flexible_links(work[j]))
-        # One discretization for the call, the most demanding climber's: the cases then share
-        # one time grid (a dataset has one step dimension) and batch together.
-        elements = max(c[0] for c in choices.values())
-        steps = max(c[1] for c in choices.values())
+                                work[j]["time"]["revolutions"], _flexible_links(work[j]),
+                                truncation[j][1])
+        # One discretization for the call, the cheapest at which every climber meets its
+        # tolerance: the cases then share one time grid (a dataset has one step dimension)
+        # and batch together.
+        elements, steps, modes, _ = choose_shared(
+            [(ladders[j].space, ladders[j].time, truncation[j][1]) for j in ladders],
+            [work[j]["tolerance"] for j in ladders],
+            max(s["time"]["revolutions"] for s in work),
+            max(_flexible_links(s) for s in work))
         error = {j: float(predicted_error(ladders[j].space, ladders[j].time, elements, steps))
-                 for j in ladders}
+                 + (truncation[j][1][modes] if modes else 0.0) for j in ladders}
         more = False
         for g, c in zip(groups, climbed):
             at = sorted(g.tolist().index(j) for j in c)
@@ -607,9 +740,6 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
         if not more:
             break
 
-    flexible = max(_flexible_links(s) for s in work)
-    revolutions = max(s["time"]["revolutions"] for s in work)
-    modes = 0 if bool(cost(elements, steps, revolutions, flexible)[1]) else MODES
     for g, c in zip(groups, climbed):
         at = sorted(g.tolist().index(j) for j in c)
         below, above = bracket(at, len(g))
@@ -623,7 +753,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
                 # The case's predicted error at the shared setting: its error estimate (the
                 # ladders are its companions, ``ced.simulation.simulate``).
                 predicted = error[j]
-                report.update(_ladder_report(ladders[j], choices[j]), ladder="own")
+                report.update(_ladder_report(ladders[j], choices[j], truncation[j]),
+                              ladder="own")
             else:
                 # Not climbed: bounded by its climbing neighbours in speed, verified above.
                 pair = [int(g[below[position]]), int(g[above[position]])]

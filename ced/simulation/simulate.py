@@ -389,8 +389,8 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
 
 def _peaks(scenes: list[dict], keep_going: bool = False,
            guesses: list | None = None) -> dict[str, np.ndarray]:
-    """Peak stress, first natural frequency (where the scenes ask for a modal analysis) and
-    speed of scenes solved in batches, in the order given: the solver injected into
+    """Peak stress, first and highest natural frequency (rad/s, where the scenes ask for a
+    modal analysis) and speed of scenes solved in batches, in the order given: the solver injected into
     :func:`ced.auto.discretization.resolve_discretization` (pilots) and
     :func:`ced.auto.error_estimate.error_estimates` (companions, ``keep_going``: a group whose
     every case fails leaves NaN instead of raising; ``guesses``, per scene or None: the
@@ -398,7 +398,8 @@ def _peaks(scenes: list[dict], keep_going: bool = False,
     groups: dict[tuple, list[int]] = {}
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
-    out = {key: np.full(len(scenes), np.nan) for key in ("peak", "omega1", "speed")}
+    out = {key: np.full(len(scenes), np.nan) for key in ("peak", "omega1", "omega_top",
+                                                          "speed")}
     limits = {key: cases_per_solve(scenes[indices[0]]) for key, indices in groups.items()}
     parts = [group[i:i + limits[key]] for key, group in groups.items()
              for i in range(0, len(group), limits[key])]
@@ -414,7 +415,10 @@ def _peaks(scenes: list[dict], keep_going: bool = False,
         out["peak"][indices] = np.where(failed, np.nan, _case_peak(result["peak_stress"]))
         out["speed"][indices] = batch.speed
         if "natural_frequency" in result:
-            out["omega1"][indices] = first_natural_frequency(result["natural_frequency"])
+            frequency = result["natural_frequency"]
+            out["omega1"][indices] = first_natural_frequency(frequency)
+            # the highest mode asked for, at its highest over the cycle
+            out["omega_top"][indices] = first_natural_frequency(frequency[:, :, -1:])
     return out
 
 

@@ -1,6 +1,7 @@
 """discretization: auto — measured error ladders, the cheapest setting under the tolerance, and
 the achieved error."""
 import json
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -8,7 +9,8 @@ import yaml
 from hypothesis import given, settings, strategies as st
 
 from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, INTERPOLATION_MARGIN,
-                                     MAX_LADDER_STEPS, MODES, RESONANT_HARMONICS, SAFETY,
+                                     MAX_LADDER_STEPS, MODE_CHOICES, MODES,
+                                     RESONANT_HARMONICS, SAFETY, _full_cost, _reduced_cost,
                                      _sweep_key, bracket, choose, cost, interpolate,
                                      ladder_errors, predicted_error, representatives,
                                      resolve_discretization, sweeps, unverified)
@@ -24,8 +26,9 @@ def reference_raw(**changes) -> dict:
 
 
 def test_ladder_errors_extrapolated_to_zero_are_unbounded():
-    assert ladder_errors([1.0, 2.0, 0.5])[-1] == np.inf
-    assert np.all(interpolate([32, 64, 128], ladder_errors([1.0, 2.0, 0.5]), [100, 256])
+    # Asymptotic (changes −12, −3: order 2) towards a Richardson limit of zero.
+    assert ladder_errors([16.0, 4.0, 1.0])[-1] == np.inf
+    assert np.all(interpolate([32, 64, 128], ladder_errors([16.0, 4.0, 1.0]), [100, 256])
                   == np.inf)
     assert np.all(ladder_errors([0.0, 0.0, 0.0]) == 0.0)
 
@@ -36,17 +39,40 @@ def test_ladder_errors_are_exact_for_second_order_convergence():
     assert ladder_errors(peaks) == pytest.approx(3.0 * h**2 / 1.0, rel=1e-9)
 
 
+@pytest.mark.parametrize("observed", [1.0, 2.0, 3.0, 3.5])
+def test_ladder_errors_extrapolate_within_the_asymptotic_orders(observed):
+    # Changes falling at an observed order from 1 to 3.5 earn Richardson's correction at
+    # order 2: the last rung's error is a third of its change (or a twelfth of the one before).
+    peaks = [1.01 + 0.01 * 2.0**observed, 1.01, 1.0]  # changes 0.01·2^q, then 0.01
+    errors = ladder_errors(peaks)
+    expected = max(0.01 / 3.0, 0.01 * 2.0**observed / 12.0)
+    assert errors[-1] * abs(1.0 - 0.01 / 3.0) == pytest.approx(expected)
+
+
+def test_a_ladder_out_of_its_asymptotic_range_earns_no_extrapolation():
+    # Phase-wrapped rungs of a start transient: the peak moves erratically by about 1 %.
+    peaks = [1.0, 1.012, 0.998, 1.006, 0.999]
+    errors = ladder_errors(peaks)
+    assert errors[-1] == pytest.approx(0.007 / 0.999)  # its own change, not a third of it
+    # Every coarser rung errs by its distance to the last plus the last one's error.
+    distance = np.abs(np.array(peaks) - peaks[-1]) / 0.999
+    assert np.all(errors[:-1] >= distance[:-1] + errors[-1] - 1e-15)
+    # A plateau (two rungs that happen to agree after a large change) is not converged.
+    assert ladder_errors([1.05, 1.0, 1.0])[-1] == pytest.approx(0.05 / 4.0)
+
+
 @given(st.lists(st.floats(0.5, 2.0), min_size=3, max_size=8))
 @settings(max_examples=200, deadline=None)
 def test_ladder_errors_never_grow_under_refinement(peaks):
     errors = ladder_errors(peaks)
-    limit = peaks[-1] + (peaks[-1] - peaks[-2]) / 3.0
-    if limit == 0.0:  # e.g. [1, 2, 0.5]: no relative error can be credited
-        assert errors[-1] == np.inf
+    if errors[-1] == np.inf:  # extrapolated to zero: no relative error can be credited
         return
     assert np.all(np.diff(errors) <= 1e-15)
-    # The last rung is never credited with less than its own Richardson correction.
-    assert errors[-1] * abs(limit) >= abs(peaks[-1] - peaks[-2]) / 3.0 * (1 - 1e-12)
+    # The last rung is never credited with less than its own Richardson correction,
+    # relative to the extrapolated limit or (out of the asymptotic range) to the last rung.
+    limit = peaks[-1] + (peaks[-1] - peaks[-2]) / 3.0
+    assert (errors[-1] * max(abs(limit), abs(peaks[-1]))
+            >= abs(peaks[-1] - peaks[-2]) / 3.0 * (1 - 1e-12))
 
 
 def test_ladder_errors_distrust_a_rung_at_a_sign_change():
@@ -71,10 +97,14 @@ def test_interpolation_between_and_beyond_rungs():
 
 def test_cost_model_prefers_the_cheaper_model():
     c, full = cost(np.array([2, 4, 8, 128]), 128, 1.0, 2)
-    assert list(full) == [True, False, False, False]  # the full mesh only up to 4 elements
+    # The full mesh up to 4 elements, where a reduced link of 4 modes is no smaller.
+    assert list(full) == [True, True, False, False]
     assert np.all(np.diff(c) > 0)
     # Steps dominate: doubling them costs more than quadrupling a fine mesh.
     assert cost(8, 256, 1.0, 1)[0] > cost(32, 128, 1.0, 1)[0]
+    # More modes cost more per step; past 8 elements the reduced model is the cheaper one.
+    assert cost(32, 1024, 1.0, 1, 8)[0] > cost(32, 1024, 1.0, 1, 4)[0]
+    assert not cost(32, 1024, 1.0, 1, 8)[1]
 
 
 ladders = st.lists(st.floats(1e-7, 1e-1), min_size=3, max_size=6).map(
@@ -82,31 +112,51 @@ ladders = st.lists(st.floats(1e-7, 1e-1), min_size=3, max_size=6).map(
 
 
 @given(space=ladders, time=ladders, tol=st.sampled_from([1e-2, 1e-3, 1e-4]),
-       flexible=st.sampled_from([1, 2]))
+       flexible=st.sampled_from([1, 2]),
+       cut=st.tuples(st.floats(0.0, 1e-2), st.floats(0.0, 1e-3)))
 @settings(max_examples=40, deadline=None)
-def test_choice_meets_the_tolerance_at_least_cost(space, time, tol, flexible):
+def test_choice_meets_the_tolerance_at_least_cost(space, time, tol, flexible, cut):
     x = (2.0 * 2.0 ** np.arange(len(space)), space)
     t = (FIRST_STEPS * 2.0 ** np.arange(len(time)), time)
-    elements, steps, predicted, _ = choose(x, t, tol, 1.0, flexible)
-    # Brute force over the same grid, within the ladders.
+    truncation = dict(zip(MODE_CHOICES, cut))
+    elements, steps, modes, predicted = choose(x, t, tol, 1.0, flexible, truncation)
+    # Brute force over the same grid, within the ladders, over every model.
     ne, spr = np.meshgrid(_ELEMENTS[_ELEMENTS <= x[0][-1]],
                           np.arange(FIRST_STEPS, t[0][-1] + 1, 8), indexing="ij")
     grid_error = predicted_error(x, t, ne, spr)
-    meeting = grid_error <= tol / SAFETY
-    if meeting.any():  # nothing that meets the target is cheaper
-        assert predicted == pytest.approx(float(predicted_error(x, t, elements, steps)))
+    costs = {m: np.where(grid_error + (truncation[m] if m else 0.0) <= tol / SAFETY,
+                         _reduced_cost(ne, spr, 1.0, flexible, m) if m else
+                         _full_cost(ne, spr, 1.0, flexible), np.inf)
+             for m in (0,) + MODE_CHOICES}
+    best = min(float(c.min()) for c in costs.values())
+    chosen = float(predicted_error(x, t, elements, steps)) + (truncation[modes] if modes
+                                                               else 0.0)
+    assert predicted == pytest.approx(chosen)
+    if np.isfinite(best):  # nothing that meets the target is cheaper
         assert predicted <= tol / SAFETY
-        best = cost(ne, spr, 1.0, flexible)[0][meeting].min()
-        assert float(cost(elements, steps, 1.0, flexible)[0]) == pytest.approx(best)
+        model = (_reduced_cost(elements, steps, 1.0, flexible, modes) if modes else
+                 _full_cost(elements, steps, 1.0, flexible))
+        assert float(model) == pytest.approx(best)
     else:  # unreachable: the ladders' finest rungs, measured
         assert (elements, steps) == (int(x[0][-1]), int(t[0][-1]))
+
+
+def test_a_truncated_model_is_chosen_only_where_its_truncation_fits():
+    # Converged ladders: the reduced model of 4 modes is the cheapest, unless its measured
+    # truncation exceeds the room the tolerance leaves; then 8 modes, then the full mesh.
+    x = (np.array([2.0, 4.0, 8.0, 16.0]), np.array([5e-2, 2e-2, 4e-3, 1e-3]))
+    t = (np.array([32.0, 64.0, 128.0]), np.array([1e-2, 1e-3, 1e-4]))
+    assert choose(x, t, 1e-2, 1.0, 1, {4: 0.0, 8: 0.0})[2] == 4
+    assert choose(x, t, 1e-2, 1.0, 1, {4: 8e-3, 8: 1e-3})[2] == 8
+    elements, steps, modes, predicted = choose(x, t, 1e-2, 1.0, 1, {4: 8e-3, 8: 8e-3})
+    assert modes == 0 and predicted <= 1e-2 / SAFETY
 
 
 def fake_solver(peak, omega1=1e9, log=None):
     """A solve() for resolve_discretization: peak(elements, steps), a first frequency and the
     scene's speed."""
     def solve(scenes):
-        out = {"peak": [], "omega1": [], "speed": []}
+        out = {"peak": [], "omega1": [], "omega_top": [], "speed": []}
         for s in scenes:
             ne = s["discretization"]["elements_per_link"]
             spr = s["time"]["steps_per_revolution"]
@@ -114,6 +164,7 @@ def fake_solver(peak, omega1=1e9, log=None):
                 log.append((ne, spr))
             out["peak"].append(peak(ne, spr))
             out["omega1"].append(omega1 if s["modal"] else np.nan)
+            out["omega_top"].append(omega1 if s["modal"] else np.nan)  # one mode
             out["speed"].append(s["drive"]["speed"])
         return {k: np.array(v) for k, v in out.items()}
     return solve
@@ -187,7 +238,7 @@ def test_an_excitable_mode_is_resolved_by_the_time_ladder(harmonic, finest):
 def test_reference_four_bar_meets_the_tolerance(reference_four_bar_peak, tolerance):
     ds = simulate(reference_raw(discretization="auto", tolerance=tolerance))
     choice = json.loads(str(ds.discretization_auto.values[0]))
-    assert choice["modes_per_link"] in (0, MODES) and choice["tolerance"] == tolerance
+    assert choice["modes_per_link"] in (0,) + MODE_CHOICES and choice["tolerance"] == tolerance
     true = abs(float(ds.peak_stress.max()) - reference_four_bar_peak) / reference_four_bar_peak
     assert true < tolerance
     assert true <= choice["predicted_error"] <= tolerance / SAFETY
@@ -202,15 +253,23 @@ def test_scene_without_auto_reports_nothing():
     assert "discretization_auto" not in simulate(raw)
 
 
-def test_several_auto_scenes_share_the_most_demanding_discretization():
+def test_several_auto_scenes_share_one_discretization_that_meets_both():
     raw = reference_raw(discretization="auto")
     fast = {**raw, "drive": {"speed": 150.0}}
     ds = simulate([raw, fast])
     choices = [json.loads(str(v)) for v in ds.discretization_auto.values]
+    keys = ("elements_per_link", "steps_per_revolution", "modes_per_link")
+    shared = [choices[0][k] for k in keys]
+    assert shared == [choices[1][k] for k in keys]
+    for choice in choices:  # each meets its tolerance there, by its own ladders
+        assert choice["predicted_error"] <= choice["tolerance"] / SAFETY
+    # At least each case's own choice, and no costlier than the finest of each
+    # (elements, steps) of the two own choices with the full mesh.
     own = [c["own_choice"] for c in choices]
-    assert choices[0]["steps_per_revolution"] == choices[1]["steps_per_revolution"] == max(
-        s for _, s in own)
-    assert choices[0]["elements_per_link"] == max(e for e, _ in own)
+    model = cost(shared[0], shared[1], 1.0, 1, shared[2] or MODES)
+    assert float(model[0]) >= max(float(cost(e, s, 1.0, 1, m or MODES)[0]) for e, s, m in own)
+    assert float(model[0]) <= float(cost(max(e for e, _, _ in own), max(s for _, s, _ in own),
+                                         1.0, 1)[0]) * (1 + 1e-12)
 
 
 def test_identical_scenes_share_their_pilots():
@@ -235,7 +294,13 @@ def test_identical_scenes_share_their_pilots():
     assert [s["name"] for s in chosen] == [f"copy {k}" for k in range(4)]
     resolve_discretization([raw(1e-2)], fake_solver(peak, log=other_log))
     resolve_discretization(copies + [raw(1e-2)], fake_solver(peak, log=mixed_log))
-    assert sorted(mixed_log) == sorted(alone_log + other_log)
+    # Each distinct case climbs its own ladders; only the truncation (at the ladders' mesh) is
+    # measured again, at the finest steps any ladder of the call reached.
+    top, other_top = max(s for _, s in alone_log), max(s for _, s in other_log)
+    assert other_top < top
+    truncation = [(8, other_top)] * (1 + len(MODE_CHOICES))  # full mesh and each reduced one
+    expected = Counter(alone_log) + Counter(other_log) - Counter(truncation)
+    assert Counter(mixed_log) == expected + Counter([(8, top)] * len(truncation))
 
 
 # Sweeps in speed share their ladders (module docstring, stage 5).
@@ -244,7 +309,7 @@ def sweep_solver(peak, omega1=lambda speed: 1e9, log=None):
     """A solve() whose peak(elements, steps, speed) and first frequency (rad/s) depend on the
     speed; ``log`` gets (speed, elements, steps) per pilot."""
     def solve(scenes):
-        out = {"peak": [], "omega1": [], "speed": []}
+        out = {"peak": [], "omega1": [], "omega_top": [], "speed": []}
         for s in scenes:
             ne = s["discretization"]["elements_per_link"]
             spr = s["time"]["steps_per_revolution"]
@@ -253,6 +318,7 @@ def sweep_solver(peak, omega1=lambda speed: 1e9, log=None):
                 log.append((speed, ne, spr))
             out["peak"].append(peak(ne, spr, speed))
             out["omega1"].append(omega1(speed) if s["modal"] else np.nan)
+            out["omega_top"].append(omega1(speed) if s["modal"] else np.nan)  # one mode
             out["speed"].append(speed)
         return {k: np.array(v) for k, v in out.items()}
     return solve
@@ -364,7 +430,9 @@ def test_a_case_between_representatives_that_they_do_not_predict_climbs_its_own(
     chosen, reports = resolve_discretization(
         speed_sweep(speeds), sweep_solver(peak, lambda v: 15.0 * v if v == odd else 1e9, log))
     assert reports[5]["ladder"] == "own" and max(s for v, _, s in log if v == odd) >= 256
-    assert not any(s > 128 for v, _, s in log if v != odd)
+    # The others' ladders stop at 128; beyond, only their truncation at the ladders' mesh,
+    # measured at the finest steps any ladder reached.
+    assert {(ne, s) for v, ne, s in log if v != odd and s > 128} == {(8, max(s for *_, s in log))}
     spr = chosen[5]["time"]["steps_per_revolution"]
     assert spr >= reports[5]["own_choice"][1] and 400.0 / spr**2 < 1e-2
     # A smooth bump between the first climbers fails their bound: the gap is bisected until
