@@ -67,12 +67,22 @@ def peak_strain(setting: tuple[int, int, int], speeds=SPEEDS, repeat: int = 1,
                 chunk: int | None = None):
     """Peak coupler strain per speed and the best wall time per case (s) of one batch (of
     ``chunk`` speeds at a time where given, the times summed)."""
+    strain, _, seconds = peaks(setting, speeds, repeat, chunk)
+    return strain, seconds
+
+
+def peaks(setting: tuple[int, int, int], speeds=SPEEDS, repeat: int = 1,
+          chunk: int | None = None):
+    """Peak coupler strain and peak stress (Pa, over the links) per speed, and the best wall
+    time per case (s) of one batch (of ``chunk`` speeds at a time where given, the times
+    summed)."""
     if chunk is not None:
-        parts = [peak_strain(setting, speeds[i:i + chunk], repeat)
+        parts = [peaks(setting, speeds[i:i + chunk], repeat)
                  for i in range(0, len(speeds), chunk)]
         seconds = sum(t * len(speeds[i:i + chunk])
-                      for (_, t), i in zip(parts, range(0, len(speeds), chunk)))
-        return np.concatenate([p for p, _ in parts]), seconds / len(speeds)
+                      for (*_, t), i in zip(parts, range(0, len(speeds), chunk)))
+        return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+                seconds / len(speeds))
     scenes = [scene(s, *setting) for s in speeds]
     best, out = np.inf, None
     for _ in range(repeat):
@@ -82,7 +92,7 @@ def peak_strain(setting: tuple[int, int, int], speeds=SPEEDS, repeat: int = 1,
         out = solve_batch(batch)
         best = min(best, time.perf_counter() - t0)
     strain = np.abs(out["bending_strain"][:, :, 1]).max(axis=(1, 2)).astype(float)
-    return strain, best / len(speeds)
+    return strain, np.nanmax(out["peak_stress"], axis=1), best / len(speeds)
 
 
 def cheapest(reference: np.ndarray, uncertainty: float = 0.0, repeat: int = 3,

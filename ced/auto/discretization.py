@@ -1,40 +1,56 @@
-"""``discretization: auto``: elements and steps from the scene's tolerance, at least cost.
+"""``discretization: auto``: elements, steps and model from the scene's tolerance, at least cost.
 
 The scene's ``tolerance`` is a target relative error on peak stress. Its error is modelled as
-a sum of a space and a time part, e(n_e, s_r) ≈ E_x(n_e) + E_t(s_r), each *measured* on a
-refinement ladder of cheap batched pilots rather than assumed from a convergence order, so
-that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, not guessed:
+a sum of a space, a time and a model part, e(n_e, s_r, m) ≈ E_x(n_e) + E_t(s_r) + E_m(m), each
+*measured* on cheap batched pilots rather than assumed from a convergence order, so that
+pre-asymptotic behaviour (an under-resolved mode, a sign change, wrapped phases) is seen, not
+guessed:
 
-1. **Time ladder.** The pilot mesh (:data:`LADDER_ELEMENTS` elements per link) is solved at
+1. **Time ladder.** The pilot mesh (:data:`LADDER_ELEMENTS` elements per link, reduced to
+   :data:`MODES` modes per flexible link, the most a choice keeps) is solved at
    s = :data:`FIRST_STEPS`, 2s, 4s, … steps per revolution. The first rung gives 8 steps per
    period of the 4th crank harmonic, the coarsest resolution at which a peak over the cycle
-   is meaningful; it also carries a frozen modal analysis, whose first natural frequency ω₁
-   decides whether the mode can be excited by the crank harmonics that matter
-   (ω₁ ≤ :data:`RESONANT_HARMONICS` Ω): then the ladder must resolve it (ω₁h ≤ 1/2) before
-   it may stop, so that its resonant contribution is seen converging. The ladder stops once
-   its last rung's error is below tolerance / (2 :data:`SAFETY`).
+   is meaningful; it also carries a frozen modal analysis. In a periodic state its first
+   natural frequency ω₁ decides whether the mode can be excited by the crank harmonics that
+   matter (ω₁ ≤ :data:`RESONANT_HARMONICS` Ω): then the ladder must resolve it (ω₁h ≤ 1/2)
+   before it may stop, so that its resonant contribution is seen converging. From a start
+   transient every mode rings: the ladder must resolve all of its model's modes (the
+   :data:`MODES` × flexible links lowest), for rungs that damp them numerically agree without
+   converging (the benchmark sweep's ladders stopped at 256 steps per revolution, 1.2 % off,
+   on two rungs that agreed to 0.05 %). The ladder stops once its last rung's error is below
+   tolerance / (2 :data:`SAFETY`).
 2. **Space ladder**, at the coarsest rung of the time ladder whose time error is within the
-   tolerance (the interaction of the two errors, a few per cent of the time error on the
-   convergence study's scenes, is then negligible): 2, 4, 8, … elements per link until the
-   last rung's error is within the same budget as the time ladder's.
-3. **Ladder errors** (:func:`ladder_errors`). The limit is Richardson-extrapolated from the
-   last two rungs at order 2; each rung's error is its distance to that limit, the last rung's
-   the larger of its Richardson correction and the previous rung's correction carried one
-   level further, and errors are made non-increasing under refinement so that a rung that
-   happens to sit near a sign change is not trusted. Between rungs the error follows the
+   tolerance and that resolves what the time ladder had to (the interaction of the two
+   errors, a few per cent of the time error on the convergence study's scenes, is then
+   negligible): 2, 4, 8, … elements per link until the last rung's error is within the same
+   budget as the time ladder's.
+3. **Model.** The truncation of a reduced model with each of :data:`MODE_CHOICES` modes per
+   flexible link, measured against the full mesh at :data:`LADDER_ELEMENTS` elements and the
+   finest steps any ladder of the call reached (coarser steps damp the modes left out and
+   hide it). With static load vectors it is negligible in a periodic state, but a start
+   transient rings in the modes left out: on the benchmark sweep four modes leave up to
+   1.1 % of peak stress at 1624 steps per revolution, eight 0.12 %.
+4. **Ladder errors** (:func:`ladder_errors`). Where the last three rungs converge at about
+   the theoretical order (:data:`ASYMPTOTIC_ORDERS`), the limit is Richardson-extrapolated
+   from the last two rungs at order 2; each rung's error is its distance to that limit, the
+   last rung's the larger of its Richardson correction and the previous rung's correction
+   carried one level further. Elsewhere (phases wrapped from a start transient: the peak
+   then moves erratically by up to 1.6 % from 1024 to 8192 steps per revolution) there is no
+   extrapolation: the last rung errs by the larger of its own change and the previous one
+   carried a level further, every other rung by its distance to the last plus that. Errors
+   are made non-increasing under refinement so that a rung that happens to sit near a sign
+   change is not trusted. Between rungs the error follows the
    power law through the two (their observed order); beyond the finest rung it falls at
    order 2 (:func:`interpolate`): peak stress converges at order 2 in time and between 2 and 3
    in space (``ced.auto.error_estimate``), so that errs on the safe side. Where the error
-   drops faster than at twice that order between two rungs (a mode resolved in between: the double
-   crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser rung's error
-   holds up to the finer rung.
-4. **Choice.** The cheapest (n_e, s_r) on a grid (n_e from 2, s_r in multiples of 8 from the
-   first rung, both up to the ladders' finest rungs) with E_x + E_t ≤ tolerance /
-   :data:`SAFETY`, by :func:`cost`, a model of
-   the solve time per case fitted to the convergence study's timings (:data:`COST`). The model
-   is the full Euler–Bernoulli mesh or the mesh reduced to :data:`MODES` fixed-interface modes
-   per flexible link plus static load vectors (component-mode synthesis, truncation below 1e-5
-   on the reference four-bar), whichever costs less.
+   drops faster than at twice that order between two rungs (a mode resolved in between: the
+   double crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser
+   rung's error holds up to the finer rung.
+   **Choice** (:func:`choose`, :func:`choose_shared`). The cheapest (n_e, s_r, m) on a grid
+   (n_e from 2, s_r in multiples of 8 from the first rung, both up to the ladders' finest
+   rungs; m one of :data:`MODE_CHOICES` or the full mesh) with E_x + E_t + E_m ≤ tolerance /
+   :data:`SAFETY`, by :func:`cost`, a model of the solve time per case fitted to the
+   convergence study's timings (:data:`COST`).
 
 5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
    a sweep (:func:`sweeps`). Every case solves the first rung, with its own modal analysis; the
@@ -63,12 +79,14 @@ that pre-asymptotic behaviour (an under-resolved mode, a sign change) is seen, n
    :data:`INTERPOLATION_MARGIN` times them, and every case climbs (raising the setting by that
    factor instead would cost more: √3 times the steps).
 
-One discretization serves all ``auto`` scenes of a call, the most demanding climber's, so that
-they share one time grid (one ``step`` dimension) and batch together. Per case the variable
+One discretization serves all ``auto`` scenes of a call, the cheapest at which every climber
+is predicted to meet its tolerance (:func:`choose_shared`), so that they share one time grid
+(one ``step`` dimension) and batch together. Per case the variable
 ``discretization_auto`` (JSON) records the choice and the predicted error, and whether the
 tolerance was reachable within the ladders' limits (where it was not, the ladders' finest
-rungs are used and ``status`` has ``tolerance_unmet``); a climber also its own choice and both
-ladders (``ladder: own``), a case that did not climb the two climbers whose ladders bound it
+rungs are used and ``status`` has ``tolerance_unmet``); a climber also its own choice
+(elements, steps, modes), both ladders and its truncation with the steps it was measured at
+(``ladder: own``), a case that did not climb the two climbers whose ladders bound it
 (``ladder: interpolated``, ``ladder_cases``, ``interpolation_margin``). The predicted error at
 the chosen setting is also the case's ``error_estimate``: the ladders are its companion
 solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases). Cases that differ
@@ -432,11 +450,13 @@ def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[li
 
 
 class _Climbed(NamedTuple):
-    """A case's ladders, each (levels, errors), and the steps of its space ladder."""
+    """A case's ladders, each (levels, errors), the steps of its space ladder, and the peaks
+    of its time ladder (steps per revolution → peak stress, Pa)."""
 
     space: tuple
     time: tuple
     space_steps: int
+    time_peaks: dict[int, float]
 
 
 def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
@@ -474,18 +494,26 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
     space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
                           space_done, len(rungs_x), known)
     return [_Climbed((np.array(rungs_x[:len(sp)], float), ladder_errors(sp, order=2.0)),
-                     (levels, errors), steps)
-            for sp, levels, errors, steps in zip(space_peaks, time_levels, time_errors,
-                                                 space_steps)]
+                     (levels, errors), steps, dict(zip(levels.astype(int).tolist(), tp)))
+            for sp, levels, errors, steps, tp in zip(space_peaks, time_levels, time_errors,
+                                                     space_steps, time_peaks)]
 
 
-def _truncation(work: list[dict], solve: Callable, steps: int) -> list[dict[int, float]]:
+def _truncation(work: list[dict], solve: Callable, steps: int,
+                known: list[dict[int, float]]) -> list[dict[int, float]]:
     """Per scene the relative error on peak stress of a reduced model with each of
     :data:`MODE_CHOICES` modes per link against the full mesh, both at
-    :data:`LADDER_ELEMENTS` and ``steps`` per revolution (module docstring, stage 3)."""
+    :data:`LADDER_ELEMENTS` and ``steps`` per revolution (module docstring, stage 3);
+    ``known``: per scene its time ladder's peaks (the :data:`MODES` model at that mesh), of
+    which the one at ``steps``, where the ladder reached them, is not solved again."""
     modes = (0,) + tuple(MODE_CHOICES)
-    pilots = [_pilot(scene, LADDER_ELEMENTS, steps, m) for m in modes for scene in work]
-    peaks = np.asarray(solve(pilots)["peak"], float).reshape(len(modes), len(work))
+    todo = [(k, j) for k, m in enumerate(modes) for j in range(len(work))
+            if not (m == MODES and steps in known[j])]
+    solved = solve([_pilot(work[j], LADDER_ELEMENTS, steps, modes[k]) for k, j in todo])
+    peaks = np.array([[known[j].get(steps, np.nan) for j in range(len(work))]
+                      for _ in modes])
+    for (k, j), peak in zip(todo, solved["peak"]):
+        peaks[k, j] = peak
     full = peaks[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         errors = np.where(full == 0.0, np.where(peaks[1:] == 0.0, 0.0, np.inf),
@@ -714,7 +742,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
         stale = [j for j in ladders if j not in truncation or truncation[j][0] < top]
         if stale:
             truncation.update(zip(stale, ((top, cut) for cut in _truncation(
-                [work[j] for j in stale], solve, top))))
+                [work[j] for j in stale], solve, top,
+                [ladders[j].time_peaks for j in stale]))))
         for j, ladder in ladders.items():
             choices[j] = choose(ladder.space, ladder.time, work[j]["tolerance"],
                                 work[j]["time"]["revolutions"], _flexible_links(work[j]),
