@@ -1,7 +1,6 @@
 """discretization: auto — measured error ladders, the cheapest setting under the tolerance, and
 the achieved error."""
 import json
-from collections import Counter
 
 import numpy as np
 import pytest
@@ -294,15 +293,7 @@ def test_identical_scenes_share_their_pilots():
     assert [s["name"] for s in chosen] == [f"copy {k}" for k in range(4)]
     resolve_discretization([raw(1e-2)], fake_solver(peak, log=other_log))
     resolve_discretization(copies + [raw(1e-2)], fake_solver(peak, log=mixed_log))
-    # Each distinct case climbs its own ladders; only the truncation (at the ladders' mesh) is
-    # measured again, at the finest steps any ladder of the call reached.
-    top, other_top = max(s for _, s in alone_log), max(s for _, s in other_log)
-    assert other_top < top
-    # Alone, a case's truncation solves the full mesh and the models of fewer modes than its
-    # ladder's at its top rung; in the mix, the other case solves all of them at the top.
-    own = [(8, other_top)] * len(MODE_CHOICES)
-    expected = Counter(alone_log) + Counter(other_log) - Counter(own)
-    assert Counter(mixed_log) == expected + Counter([(8, top)] * (1 + len(MODE_CHOICES)))
+    assert sorted(mixed_log) == sorted(alone_log + other_log)
 
 
 # Sweeps in speed share their ladders (module docstring, stage 5).
@@ -432,9 +423,7 @@ def test_a_case_between_representatives_that_they_do_not_predict_climbs_its_own(
     chosen, reports = resolve_discretization(
         speed_sweep(speeds), sweep_solver(peak, lambda v: 15.0 * v if v == odd else 1e9, log))
     assert reports[5]["ladder"] == "own" and max(s for v, _, s in log if v == odd) >= 256
-    # The others' ladders stop at 128; beyond, only their truncation at the ladders' mesh,
-    # measured at the finest steps any ladder reached.
-    assert {(ne, s) for v, ne, s in log if v != odd and s > 128} == {(8, max(s for *_, s in log))}
+    assert not any(s > 128 for v, _, s in log if v != odd)
     spr = chosen[5]["time"]["steps_per_revolution"]
     assert spr >= reports[5]["own_choice"][1] and 400.0 / spr**2 < 1e-2
     # A smooth bump between the first climbers fails their bound: the gap is bisected until
