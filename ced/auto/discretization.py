@@ -3,8 +3,8 @@
 The scene's ``tolerance`` is a target relative error on peak stress. Its error is modelled as
 a sum of a space, a time and a model part, e(n_e, s_r, m) ≈ E_x(n_e) + E_t(s_r) + E_m(m), each
 *measured* on cheap batched pilots rather than assumed from a convergence order, so that
-pre-asymptotic behaviour (an under-resolved mode, a sign change, wrapped phases) is seen, not
-guessed:
+pre-asymptotic behaviour (an under-resolved mode, a sign change, wrapped phases) is seen,
+not guessed:
 
 1. **Time ladder.** The pilot mesh (:data:`LADDER_ELEMENTS` elements per link, reduced to
    :data:`MODES` modes per flexible link, the most a choice keeps) is solved at
@@ -15,10 +15,10 @@ guessed:
    matter (ω₁ ≤ :data:`RESONANT_HARMONICS` Ω): then the ladder must resolve it (ω₁h ≤ 1/2)
    before it may stop, so that its resonant contribution is seen converging. From a start
    transient every mode rings: the ladder must resolve all of its model's modes (the
-   :data:`MODES` × flexible links lowest), for rungs that damp them numerically agree without
-   converging (the benchmark sweep's ladders stopped at 256 steps per revolution, 1.2 % off,
-   on two rungs that agreed to 0.05 %). The ladder stops once its last rung's error is below
-   tolerance / (2 :data:`SAFETY`).
+   :data:`MODES` × flexible links lowest), for rungs that damp them numerically agree
+   without converging (the benchmark sweep's ladders stopped at 256 steps per revolution,
+   1.2 % off, on two rungs that agreed to 0.05 %). The ladder stops once its last rung's error
+   is below tolerance / (2 :data:`SAFETY`).
 2. **Space ladder**, at the coarsest rung of the time ladder whose time error is within the
    tolerance and that resolves what the time ladder had to (the interaction of the two
    errors, a few per cent of the time error on the convergence study's scenes, is then
@@ -28,9 +28,9 @@ guessed:
    flexible link, measured against the full mesh at :data:`LADDER_ELEMENTS` elements and the
    finest rung of the time ladder, which resolves every mode of the ladders' model from a
    start transient (coarser steps damp the modes left out and hide the truncation: 0.1 % at
-   128 steps per revolution where it is 1.1 % at 1624). With static load vectors it is negligible in a periodic state, but a start
-   transient rings in the modes left out: on the benchmark sweep four modes leave up to
-   1.1 % of peak stress at 1624 steps per revolution, eight 0.12 %.
+   128 steps per revolution where it is 1.1 % at 1624). With static load vectors it is
+   negligible in a periodic state, but a start transient rings in the modes left out: on the
+   benchmark sweep four modes leave up to 1.1 % of peak stress, eight 0.12 %.
 4. **Ladder errors** (:func:`ladder_errors`). Where the last three rungs converge at about
    the theoretical order (:data:`ASYMPTOTIC_ORDERS`), the limit is Richardson-extrapolated
    from the last two rungs at order 2; each rung's error is its distance to that limit, the
@@ -40,19 +40,17 @@ guessed:
    extrapolation: the last rung errs by the larger of its own change and the previous one
    carried a level further, every other rung by its distance to the last plus that. Errors
    are made non-increasing under refinement so that a rung that happens to sit near a sign
-   change is not trusted. Between rungs the error follows the
-   power law through the two (their observed order); beyond the finest rung it falls at
-   order 2 (:func:`interpolate`): peak stress converges at order 2 in time and between 2 and 3
-   in space (``ced.auto.error_estimate``), so that errs on the safe side. Where the error
-   drops faster than at twice that order between two rungs (a mode resolved in between: the
-   double crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser
-   rung's error holds up to the finer rung.
-   **Choice** (:func:`choose`, :func:`choose_shared`). The cheapest (n_e, s_r, m) on a grid
-   (n_e from 2, s_r in multiples of 8 from the first rung, both up to the ladders' finest
-   rungs; m one of :data:`MODE_CHOICES` or the full mesh) with E_x + E_t + E_m ≤ tolerance /
-   :data:`SAFETY`, by :func:`cost`, a model of the solve time per case fitted to the
-   convergence study's timings (:data:`COST`).
-
+   change is not trusted. Between rungs the error follows the power law through the two
+   (their observed order); beyond the finest rung it falls at order 2 (:func:`interpolate`):
+   peak stress converges at order 2 in time and between 2 and 3 in space
+   (``ced.auto.error_estimate``), so that errs on the safe side. Where the error drops faster
+   than at twice that order between two rungs (a mode resolved in between: the double
+   crank's falls 130× from 32 to 64 steps, and is still 4e-4 at 40), the coarser rung's error
+   holds up to the finer rung. **Choice** (:func:`choose`). The cheapest (n_e, s_r, m) on a
+   grid (n_e from 2, s_r in multiples of 8 from the first rung, both up to the ladders'
+   finest rungs; m one of :data:`MODE_CHOICES` or the full mesh) with E_x + E_t + E_m ≤
+   tolerance / :data:`SAFETY`, by :func:`cost`, a model of the solve time per case fitted to
+   the convergence study's timings (:data:`COST`).
 5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
    a sweep (:func:`sweeps`). Every case solves the first rung, with its own modal analysis; the
    ladders are climbed by every :data:`STRIDE`-th case in the order of speed and the last
@@ -86,8 +84,9 @@ is predicted to meet its tolerance (:func:`choose_shared`), so that they share o
 ``discretization_auto`` (JSON) records the choice and the predicted error, and whether the
 tolerance was reachable within the ladders' limits (where it was not, the ladders' finest
 rungs are used and ``status`` has ``tolerance_unmet``); a climber also its own choice
-(elements, steps, modes), both ladders and its truncation (``ladder: own``), a case that did not climb the two climbers whose ladders bound it
-(``ladder: interpolated``, ``ladder_cases``, ``interpolation_margin``). The predicted error at
+(elements, steps, modes), both ladders and its truncation (``ladder: own``), a case that did
+not climb the two climbers whose ladders bound it (``ladder: interpolated``,
+``ladder_cases``, ``interpolation_margin``). The predicted error at
 the chosen setting is also the case's ``error_estimate``: the ladders are its companion
 solutions (``ced.auto.error_estimate``'s are not run for ``auto`` cases). Cases that differ
 only in name share one set of ladders: a batch of identical cases pays for one case's pilots.
@@ -194,7 +193,7 @@ def _full_cost(elements, steps, revolutions: float, flexible_links: int) -> np.n
 def _reduced_cost(elements, steps, revolutions: float, flexible_links: int,
                   modes: int = MODES) -> np.ndarray:
     """Modelled solve time per case of the reduced model, ms, infinite where it is no smaller
-    than the full mesh; its per-step cost, fitted at :data:`MODES`, scaled by its DOFs."""
+    than the full mesh; its per-step cost, fitted at 4 modes, scaled by its DOFs."""
     ne = np.asarray(elements, float)
     per_step = COST["step_reduced"] * (modes + STATIC_VECTORS) / _FITTED_DOFS
     reduced = COST["case"] + flexible_links * (
@@ -248,8 +247,7 @@ def ladder_errors(peaks, order: float = TIME_ORDER) -> np.ndarray:
         2^order. Elsewhere the ladder is not in its asymptotic range and earns no
         extrapolation: the last rung's error is the larger of its own change and the previous
         one's divided by 2^order, and another rung's its distance to the last plus that.
-        Non-increasing under refinement (module
-        docstring, stage 3).
+        Non-increasing under refinement (module docstring, stage 4).
     """
     sigma = np.asarray(peaks, float)
     last, previous = abs(sigma[-1] - sigma[-2]), abs(sigma[-2] - sigma[-3])
@@ -280,7 +278,7 @@ def _asymptotic(previous: float, last: float, order: float) -> bool:
 
 def interpolate(levels, errors, at, order: float = TIME_ORDER,
                 steepest: float = 4.0**TIME_ORDER) -> np.ndarray:
-    """The error at refinement ``at`` from a ladder's errors (module docstring, stage 3).
+    """The error at refinement ``at`` from a ladder's errors (module docstring, stage 4).
 
     Parameters
     ----------
@@ -679,10 +677,11 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     scenes : list of dict
         Normalized scenes; those with ``discretization == "auto"`` are resolved.
     solve : callable
-        list of scenes → dict of (case,) arrays: ``peak`` (peak stress, Pa), ``omega1`` (largest
-        first natural frequency over the cycle, rad/s, when the scenes ask for a modal
-        analysis), ``speed`` (rad/s); injected by :mod:`ced.simulation.simulate` so the pilots are
-        batched like any run.
+        list of scenes → dict of (case,) arrays: ``peak`` (peak stress, Pa), ``omega1`` and
+        ``omega_top`` (the first and the highest natural frequency asked for, each at its
+        largest over the cycle, rad/s, when the scenes ask for a modal analysis), ``speed``
+        (rad/s); injected by :mod:`ced.simulation.simulate` so the pilots are batched like
+        any run.
     stride : int, optional
         Cases of a sweep between its first climbers (:func:`representatives`; 1: every
         distinct case climbs its own ladders).
@@ -711,8 +710,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     transient = np.array([s["time"]["start"] != "periodic" for s in work])
     first = [_pilot(s, LADDER_ELEMENTS, FIRST_STEPS) for s in work]
     for s, rings in zip(first, transient):
-        s["modal"] = {"modes": MODES * _flexible_links(s) if rings else 1, "angles": 4,
-                      "mode_shapes": False}
+        s["modal"] = {"modes": max(1, MODES * _flexible_links(s)) if rings else 1,
+                      "angles": 4, "mode_shapes": False}
     solved = solve(first)
     omega1, omega_top, speed = solved["omega1"], solved["omega_top"], solved["speed"]
     first_peaks = [float(peak) for peak in solved["peak"]]

@@ -390,8 +390,8 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
 def _peaks(scenes: list[dict], keep_going: bool = False,
            guesses: list | None = None) -> dict[str, np.ndarray]:
     """Peak stress, first and highest natural frequency (rad/s, where the scenes ask for a
-    modal analysis) and speed of scenes solved in batches, in the order given: the solver injected into
-    :func:`ced.auto.discretization.resolve_discretization` (pilots) and
+    modal analysis) and speed of scenes solved in batches, in the order given: the solver
+    injected into :func:`ced.auto.discretization.resolve_discretization` (pilots) and
     :func:`ced.auto.error_estimate.error_estimates` (companions, ``keep_going``: a group whose
     every case fails leaves NaN instead of raising; ``guesses``, per scene or None: the
     initial guesses of their spectral solves, :func:`solve_batch`)."""

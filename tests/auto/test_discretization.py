@@ -233,6 +233,63 @@ def test_an_excitable_mode_is_resolved_by_the_time_ladder(harmonic, finest):
     assert max(s for _, s in log) == finest
 
 
+def model_solver(peak, omega_top, log):
+    """A solve() whose peak(elements, steps, modes) sees the model (0: the full mesh), with a
+    first frequency far above the crank harmonics and the highest at ``omega_top`` (rad/s);
+    ``log`` gets (elements, steps, modes) per pilot and the modes each modal analysis asked."""
+    def solve(scenes):
+        out = {"peak": [], "omega1": [], "omega_top": [], "speed": []}
+        for s in scenes:
+            d = s["discretization"]
+            key = (d["elements_per_link"], s["time"]["steps_per_revolution"],
+                   d["modes_per_link"])
+            log.append(key + ((s["modal"]["modes"],) if s["modal"] else ()))
+            out["peak"].append(peak(*key))
+            out["omega1"].append(1e9 if s["modal"] else np.nan)
+            out["omega_top"].append(omega_top if s["modal"] else np.nan)
+            out["speed"].append(s["drive"]["speed"])
+        return {k: np.array(v) for k, v in out.items()}
+    return solve
+
+
+@pytest.mark.parametrize("start, finest", [("periodic", 128), ("undeformed", 256)])
+def test_a_start_transient_resolves_every_mode_of_the_ladders_model(start, finest):
+    # Peaks independent of the step converge at once (3 rungs, up to 128 steps). From a start
+    # transient every mode of the ladders' model rings, so the ladder climbs until the highest
+    # (here at 15× the crank speed: 4π·15 = 188 steps) is resolved; in a periodic state a mode
+    # that far above the first one cannot be excited, and the first is above the harmonics.
+    speed = 100.0
+    raw = reference_raw(discretization="auto", drive={"speed": speed})
+    raw["time"] = {**raw["time"], "start": start}
+    log = []
+    resolve_discretization([load_scene(raw)], model_solver(lambda *_: 1.0, 15 * speed, log))
+    assert max(entry[1] for entry in log) == finest
+    modal = [entry[3] for entry in log if len(entry) == 4]
+    assert modal == [MODES if start == "undeformed" else 1]  # one flexible link
+
+
+@pytest.mark.parametrize("cut_4, cut_8, chosen", [(1e-2, 1e-3, 8), (0.0, 0.0, 4),
+                                                  (1e-2, 1e-2, 0)])
+def test_the_model_is_chosen_for_its_measured_truncation(cut_4, cut_8, chosen):
+    # Converged ladders; the reduced models' peaks are off the full mesh's by cut_4 and cut_8.
+    # Four modes are kept only where their truncation fits the tolerance's room, else eight,
+    # else the full mesh; the truncation is measured at the ladders' mesh and finest steps.
+    def peak(elements, steps, modes):
+        return 1.0 + 3.0 / elements**2 + {0: 0.0, 4: cut_4, 8: cut_8}[modes]
+
+    log = []
+    (scene,), (report,) = resolve_discretization(
+        [load_scene(reference_raw(discretization="auto", tolerance=1e-2))],
+        model_solver(peak, 1.0, log))
+    assert scene["discretization"]["modes_per_link"] == chosen == report["modes_per_link"]
+    full = peak(8, 0, 0)  # relative to the full mesh at the ladders' 8 elements
+    assert report["truncation"] == {"4": pytest.approx(cut_4 / full),
+                                    "8": pytest.approx(cut_8 / full)}
+    top = max(entry[1] for entry in log)
+    assert {(8, top, 0), (8, top, 4), (8, top, 8)} <= set(log)
+    assert report["predicted_error"] <= 1e-2 / SAFETY
+
+
 @pytest.mark.parametrize("tolerance", [1e-2, 1e-3])
 def test_reference_four_bar_meets_the_tolerance(reference_four_bar_peak, tolerance):
     ds = simulate(reference_raw(discretization="auto", tolerance=tolerance))
