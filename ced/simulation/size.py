@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+from decimal import Decimal
 
 from ..problem.errors import SceneError
 from ..problem.mechanism import topology
@@ -270,9 +271,11 @@ def size_text(n: float) -> str:
 
     Examples
     --------
-    >>> size_text(1234), size_text(2.5e9)
-    ('1.23 kB', '2.5 GB')
+    >>> size_text(1234), size_text(2.5e9), size_text(10**400)
+    ('1.23 kB', '2.5 GB', '1.00e+385 PB')
     """
+    if isinstance(n, int):  # exact: a grid of 1e308 speeds counts beyond a float's range
+        n = Decimal(n)
     for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
         if n < 1000 or unit == "PB":
             return f"{n:.3g} {unit}"
