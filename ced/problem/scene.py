@@ -259,7 +259,8 @@ MEANINGS: dict[str, str] = {
     "effects": "the physical terms built into the model (each adds one group of terms), or auto "
                "to choose them for the tolerance",
     "gravity": "gravity vector [gx, gy] used by the gravity effect",
-    "damping.model": "modal: one damping ratio for every mode; rayleigh: C = αM + βK",
+    "damping.model": ("modal: one damping ratio for every mode of the linkage at every instant "
+                      "(from the modes frozen at each phase of the cycle); rayleigh: C = αM + βK"),
     "damping.ratio": "modal damping ratio (used with model modal)",
     "damping.alpha": "Rayleigh mass-proportional coefficient α (used with model rayleigh)",
     "damping.beta": "Rayleigh stiffness-proportional coefficient β (used with model rayleigh)",

@@ -25,10 +25,10 @@ from ..fem.component_modes import craig_bampton
 from ..fem.coupling import Layout, build_layout, projection
 from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients, permute,
                                 split_order, system_terms)
-from ..fem.eigenproblem import natural_frequencies
 from ..problem.errors import SceneError
 from .axial_force import ElasticAxialForce
 from .batch import Batch
+from .modal_damping import ModalDamping, tabulate
 
 __all__ = ["Model", "build_model", "terms_at", "StepTerms"]
 
@@ -47,7 +47,7 @@ class Model:
     stations: np.ndarray
     effects: set[str]
     joint_mass: np.ndarray  # (case, joint) kg
-    modal_damping: np.ndarray | None = None  # (case, ny, ny)
+    modal_damping: ModalDamping | None = None  # C over the motion's period
     points: dict[str, np.ndarray] | None = None  # joint at a point of a link -> (case, 2) m
     ternary: dict[str, dict[str, np.ndarray]] | None = None  # rigid link with points -> body
     # Where a model kept by ced.response.model_cache came from: (its serial, the kept model's
@@ -153,8 +153,9 @@ def build_model(batch: Batch) -> Model:
     effects = set(scene["effects"])
     model = Model(batch, layout, links, recovery, stations, effects, joint_mass,
                   points=points, ternary=ternary)
-    if "damping" in effects and scene["damping"]["model"] == "modal":
-        model.modal_damping = _modal_damping(model, scene["damping"]["ratio"])
+    damping = scene["damping"]
+    if "damping" in effects and damping["model"] == "modal" and damping["ratio"] > 0:
+        model.modal_damping = _modal_damping(model, damping["ratio"])
     return model
 
 
@@ -528,7 +529,7 @@ def terms_at(
     if sleeve_forces is not None:
         _add_sleeve_stiffness(layout, motion, P[0], sleeve_forces, terms.stiffness)
     if "damping" in effects:
-        _add_damping(model, terms)
+        _add_damping(model, terms, times)
     rows = layout.projection_rows
     if compact:
         return terms, P[0, ..., : len(rows), :]
@@ -580,27 +581,37 @@ def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces:
                                                   + w[..., :, None] * z_phi[..., None, :])
 
 
-def _add_damping(model: Model, terms: SystemTerms) -> None:
+def _add_damping(model: Model, terms: SystemTerms, times: np.ndarray) -> None:
     d = model.batch.scenes[0]["damping"]
     if d["model"] == "rayleigh":
         extra = d["alpha"] * terms.elastic_mass + d["beta"] * terms.elastic_stiffness
+    elif model.modal_damping is not None:
+        extra = model.modal_damping.at(times, model.batch.speed)
     else:
-        extra = np.broadcast_to(model.modal_damping[:, None], terms.stiffness.shape)
+        return  # modal, ζ = 0
     terms.damping = extra if terms.damping is None else terms.damping + extra
 
 
-def _modal_damping(model: Model, ratio: float) -> np.ndarray:
-    """C = M Φ diag(2ζω) Φᵀ M from the frozen structure at t = 0 (mass-normalised Φ), held
-    constant over the cycle: a phenomenological damping that gives every mode the ratio ζ."""
-    t0 = np.zeros((model.batch.size, 1))
-    terms, _ = terms_at(model, t0, model.effects - {"damping"},
-                        frozenset({"elastic_mass", "elastic_stiffness"}))
-    K, M = terms.elastic_stiffness[:, 0], terms.elastic_mass[:, 0]
-    n = K.shape[-1]
-    freq, shapes = natural_frequencies(K, M, n, shapes=True)
-    omega = 2.0 * math.pi * np.abs(freq)
-    MPhi = M @ shapes
-    return MPhi @ (2.0 * ratio * omega[..., None] * np.swapaxes(MPhi, -1, -2))
+def _modal_damping(model: Model, ratio: float) -> ModalDamping:
+    """C(t) = M Φ diag(2ζω) Φᵀ M from the modes frozen at each phase of the rigid motion's
+    period (:mod:`ced.response.modal_damping`): every mode of the linkage gets ζ throughout.
+
+    Tabulated at unit speed, so that the table is the same bits whatever the cases' speeds:
+    the configuration at a phase is, and :mod:`ced.response.model_cache` serves a model to
+    batches at other speeds."""
+    batch = model.batch
+    turns = batch.motion_turns
+    unit = dataclasses.replace(
+        batch, speed=np.ones(batch.size), step_size=batch.step_size * batch.speed,
+        _on_grid=None, _forces_on_grid={}, _turns=turns, _families=False, _unit_on_grid={})
+    at_unit_speed = dataclasses.replace(model, batch=unit)
+
+    def elastic_terms(times):
+        terms, _ = terms_at(at_unit_speed, times, model.effects - {"damping"},
+                            frozenset({"elastic_mass", "elastic_stiffness"}))
+        return terms.elastic_mass, terms.elastic_stiffness
+
+    return tabulate(elastic_terms, 2.0 * math.pi * turns.astype(float), turns, ratio)
 
 
 class StepTerms:

@@ -17,7 +17,10 @@ cases (:mod:`ced.fem.component_modes`), so a subset served keeps its batch's bas
 build of the subset alone could keep the vector (a default-study chunk: 3 of 500
 companions, their error estimates moved by up to 7e-4). A sub-batch of the spectral solver's
 climbing cases (:mod:`ced.response.collocation`) needs exactly that: its reduced coordinates
-must be the whole batch's.
+must be the whole batch's. Likewise the modal damping's phase grid is halved where any case of
+the batch needs it (:mod:`ced.response.modal_damping`): a subset served keeps the finer grid
+of its batch, the same table at the subset's own phases (to round-off: a midpoint is
+evaluated among other phases) and at least as close to the exact damping between them.
 
 A kept model's cases also keep the system terms evaluated for them (:func:`kept_terms`): a
 ladder's rungs are evaluated at the same phases of the period, so each phase is evaluated once
@@ -55,7 +58,8 @@ MAX_CASES = 256
 MAX_MODELS = 8
 #: Scene keys a model depends on (:func:`ced.response.model.build_model` reads the
 #: mechanism, links, point masses, discretization, effects, damping and output stations, and
-#: modal damping the configuration at t = 0, from the drive's initial angle and amplitude;
+#: modal damping the configurations over the period from t = 0, from the drive's initial
+#: angle and amplitude;
 #: gravity is kept too: a key that says too much only costs a rebuild). Not the speed: the
 #: configuration, not its rates, enters a model (checked bit for bit across speeds in
 #: ``tests/response/test_model_cache.py``).

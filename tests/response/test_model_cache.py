@@ -53,7 +53,8 @@ def empty_cache():
 
 def test_a_subset_of_a_kept_batch_gets_the_fresh_build_of_its_cases():
     # Three geometries kept; a batch of two of them (reversed, one twice, other speeds and
-    # steps) must get bit for bit the arrays a fresh build of that batch has.
+    # steps) must get bit for bit the arrays a fresh build of that batch has, but for the
+    # modal damping's table, refined where any case of the kept batch needed it.
     kept = make_batch([_scene(c) for c in (0.45, 0.46, 0.47)])
     model_cache.model_for(kept)
     batch = make_batch([_scene(0.47, speed=80.0, steps=128), _scene(0.45, speed=120.0),
@@ -63,19 +64,30 @@ def test_a_subset_of_a_kept_batch_gets_the_fresh_build_of_its_cases():
     got, want = _arrays(served), _arrays(fresh)
     assert got.keys() == want.keys() and len(want) > 20
     for path, value in want.items():
-        np.testing.assert_array_equal(got[path], value, err_msg=path)
+        if not path.startswith("modal_damping."):
+            np.testing.assert_array_equal(got[path], value, err_msg=path)
     assert served.layout == fresh.layout and served.effects == fresh.effects
+    # The fresh grid is part of the served one (a kept batch halves an interval where any of
+    # its cases needs it), and there the served table is the fresh one's to round-off: a
+    # midpoint evaluated among other phases solves its motion in another batch of times.
+    mine, theirs = fresh.modal_damping, served.modal_damping
+    at = np.searchsorted(theirs.phase[0], mine.phase[0])
+    np.testing.assert_array_equal(theirs.phase[:, at], mine.phase)
+    np.testing.assert_allclose(theirs.matrix[:, at], mine.matrix, rtol=0,
+                               atol=1e-9 * np.abs(mine.matrix).max())
+    np.testing.assert_array_equal(theirs.turns, mine.turns)
 
 
 def test_another_start_configuration_is_built_not_served():
-    # Modal damping is formed at t = 0: another initial angle, another damping matrix.
+    # Modal damping is tabulated over the phase from t = 0: another initial angle, another
+    # table.
     first = model_cache.model_for(make_batch([_scene()]))
     turned = _scene()
     turned = load_scene({**turned, "drive": {**turned["drive"], "initial_angle": 1.0}})
     other = model_cache.model_for(make_batch([turned]))
-    assert not np.array_equal(other.modal_damping, first.modal_damping)
-    np.testing.assert_array_equal(other.modal_damping,
-                                  build_model(make_batch([turned])).modal_damping)
+    assert not np.array_equal(other.modal_damping.matrix[:, 0], first.modal_damping.matrix[:, 0])
+    np.testing.assert_array_equal(other.modal_damping.matrix,
+                                  build_model(make_batch([turned])).modal_damping.matrix)
 
 
 def test_other_links_are_built_not_served():
