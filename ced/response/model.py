@@ -27,7 +27,7 @@ from ..fem.effect_terms import (LinkData, SystemTerms, axial_force_coefficients,
                                 split_order, system_terms)
 from ..problem.errors import SceneError
 from .axial_force import ElasticAxialForce
-from .batch import Batch
+from .batch import Batch, make_batch
 from .modal_damping import ModalDamping, tabulate
 
 __all__ = ["Model", "build_model", "terms_at", "StepTerms"]
@@ -598,20 +598,32 @@ def _modal_damping(model: Model, ratio: float) -> ModalDamping:
 
     Tabulated at unit speed, so that the table is the same bits whatever the cases' speeds:
     the configuration at a phase is, and :mod:`ced.response.model_cache` serves a model to
-    batches at other speeds."""
-    batch = model.batch
-    turns = batch.motion_turns
-    unit = dataclasses.replace(
-        batch, speed=np.ones(batch.size), step_size=batch.step_size * batch.speed,
-        _on_grid=None, _forces_on_grid={}, _turns=turns, _families=False, _unit_on_grid={})
-    at_unit_speed = dataclasses.replace(model, batch=unit)
+    batches at other speeds. For the same reason it is tabulated once per distinct model
+    (:func:`ced.response.model_cache.model_key`: a speed sweep's cases share one table).
+    """
+    from .model_cache import at_cases, model_key  # that module builds on this one
 
-    def elastic_terms(times):
-        terms, _ = terms_at(at_unit_speed, times, model.effects - {"damping"},
+    batch = model.batch
+    keys = [model_key(scene) for scene in batch.scenes]
+    first: dict[bytes, int] = {}
+    for i, key in enumerate(keys):
+        first.setdefault(key, i)
+    distinct = np.array(sorted(first.values()))
+    row = {case: k for k, case in enumerate(distinct)}
+    turns = batch.motion_turns[distinct]
+    unit = make_batch([batch.scenes[i] for i in distinct])
+    unit = dataclasses.replace(unit, speed=np.ones(unit.size),
+                               step_size=unit.step_size * unit.speed, _turns=turns)
+    at_unit_speed = at_cases(model, unit, distinct)
+
+    def elastic_terms(times):  # no effects: the loads and rigid forces are not needed
+        terms, _ = terms_at(at_unit_speed, times, set(),
                             frozenset({"elastic_mass", "elastic_stiffness"}))
         return terms.elastic_mass, terms.elastic_stiffness
 
-    return tabulate(elastic_terms, 2.0 * math.pi * turns.astype(float), turns, ratio)
+    table = tabulate(elastic_terms, 2.0 * math.pi * turns.astype(float), turns, ratio)
+    cases = np.array([row[first[key]] for key in keys])
+    return ModalDamping(table.phase[cases], table.matrix[cases], table.turns[cases])
 
 
 class StepTerms:

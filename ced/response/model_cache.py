@@ -48,8 +48,8 @@ import numpy as np
 from .batch import Batch
 from .model import Model, build_model
 
-__all__ = ["model_for", "model_key", "kept_terms", "clear", "MAX_CASES", "MAX_MODELS",
-           "MAX_TERM_BYTES", "MAX_TERM_ENTRY_BYTES"]
+__all__ = ["model_for", "model_key", "at_cases", "kept_terms", "clear", "MAX_CASES",
+           "MAX_MODELS", "MAX_TERM_BYTES", "MAX_TERM_ENTRY_BYTES"]
 
 #: Batches of more cases are built afresh: their build is a small part of their solve, and
 #: their models are large.
@@ -116,16 +116,26 @@ def _cases(value, cases: np.ndarray, size: int):
     return value  # None, numbers, strings, sets: no case axis
 
 
-def _at_cases(model: Model, batch: Batch, cases: np.ndarray) -> Model:
-    """``model`` at ``cases`` of its batch, as the model of ``batch``."""
-    serial, rows = model.origin
+def at_cases(model: Model, batch: Batch, cases: np.ndarray) -> Model:
+    """``model`` at ``cases`` of its batch, as the model of ``batch``.
+
+    Parameters
+    ----------
+    model : Model
+        A model of some batch (kept, with its ``origin``, or built for its batch alone).
+    batch : Batch
+        The batch the cases make up.
+    cases : numpy.ndarray
+        The cases of ``model``'s batch, one per case of ``batch``, int.
+    """
     if len(cases) == model.batch.size and np.array_equal(cases, np.arange(len(cases))):
         return dataclasses.replace(model, batch=batch)
     size = model.batch.size
     fields = {f.name: _cases(getattr(model, f.name), cases, size)
               for f in dataclasses.fields(model)
               if f.name not in ("batch", "layout", "stations", "effects", "origin")}
-    return dataclasses.replace(model, batch=batch, origin=(serial, rows[cases]), **fields)
+    origin = None if model.origin is None else (model.origin[0], model.origin[1][cases])
+    return dataclasses.replace(model, batch=batch, origin=origin, **fields)
 
 
 def model_for(batch: Batch) -> Model:
@@ -151,7 +161,7 @@ def model_for(batch: Batch) -> Model:
         model, where = _MODELS[kept]
         if all(k in where for k in keys):
             _MODELS.move_to_end(kept)
-            return _at_cases(model, batch, np.array([where[k] for k in keys]))
+            return at_cases(model, batch, np.array([where[k] for k in keys]))
     serial = next(_SERIAL)
     where: dict = {}
     for i, k in enumerate(keys):

@@ -133,3 +133,15 @@ def test_no_ratio_no_table():
     terms, _ = terms_at(model, times)
     undamped, _ = terms_at(model, times, model.effects - {"damping"})
     np.testing.assert_array_equal(terms.damping, undamped.damping)
+
+
+def test_a_speed_sweep_shares_one_table_the_same_bits_as_alone():
+    # Tabulated at unit speed, once per distinct model: the speeds of a sweep share the
+    # table, and it is the table of that geometry built alone at any speed.
+    scenes = [_scene(drive={"speed": s}) for s in (150.0, 200.0, 250.0)]
+    other = _scene(mechanism={**CHANGE_POINT["mechanism"], "coupler": 0.21})
+    table = build_model(make_batch(scenes + [other])).modal_damping
+    alone = build_model(make_batch([_scene(drive={"speed": 90.0})])).modal_damping
+    for case in range(3):
+        np.testing.assert_array_equal(table.matrix[case], alone.matrix[0])
+    assert not np.array_equal(table.matrix[3], alone.matrix[0])
