@@ -51,10 +51,10 @@ not guessed:
    finest rungs; m one of :data:`MODE_CHOICES`, or the full mesh on the meshes where the
    space ladder's pilots are the full mesh, since only there is its space error measured)
    with E_x + E_t + E_m ≤ tolerance / :data:`SAFETY`, by :func:`cost`, a model of the solve
-   time per case fitted to the convergence study's timings (:data:`COST`). With
-   ``damping: modal`` the full mesh need not converge like the reduced one: at the change
-   point's 8 elements it is 11 % off the reduced models, and 7 % off itself at 16 (every FE
-   mode is damped at the ratio, from the modes frozen at the start; docs/accuracy.md).
+   time per case fitted to the convergence study's timings (:data:`COST`). The full mesh is
+   not assumed to converge like the reduced models beyond what was measured (with the modal
+   damping frozen at the start, before 2026-11-29, it was 11 % off them at the change
+   point's 8 elements; docs/accuracy.md).
 5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
    a sweep (:func:`sweeps`). Every case solves the first rung, with its own modal analysis; the
    ladders are climbed by every :data:`STRIDE`-th case in the order of speed and the last

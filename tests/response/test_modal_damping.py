@@ -145,3 +145,24 @@ def test_a_speed_sweep_shares_one_table_the_same_bits_as_alone():
     for case in range(3):
         np.testing.assert_array_equal(table.matrix[case], alone.matrix[0])
     assert not np.array_equal(table.matrix[3], alone.matrix[0])
+
+
+def test_a_structure_that_does_not_turn_keeps_the_damping_of_its_start():
+    # A single rotating link: its elastic mass and stiffness in the link frame never change,
+    # so every sample of the table is the frozen C of t = 0 (what ced used everywhere before)
+    # to round-off, and the bisection stops at the first level.
+    scene = load_scene({"mechanism": {"type": "single_link", "length": 0.5},
+                        "drive": {"speed": 10.0},
+                        "effects": ["inertia", "elastic_inertia", "damping"],
+                        "damping": {"model": "modal", "ratio": 0.05},
+                        "discretization": {"elements_per_link": 4},
+                        "time": {"revolutions": 1, "steps_per_revolution": 64}})
+    model = build_model(make_batch([scene]))
+    table = model.modal_damping
+    assert table.phase.shape[1] == 2 * modal_damping.INITIAL_SAMPLES + 1
+    terms, _ = terms_at(model, np.zeros((1, 1)), set(), frozenset({"elastic_mass",
+                                                                  "elastic_stiffness"}))
+    start, _, _ = modal_damping.damping_matrix(terms.elastic_mass[:, 0],
+                                               terms.elastic_stiffness[:, 0], 0.05)
+    np.testing.assert_allclose(table.matrix[0], np.broadcast_to(start, table.matrix.shape[1:]),
+                               rtol=0, atol=1e-9 * np.abs(start).max())
