@@ -35,7 +35,7 @@ import numpy as np
 from ..fem.eigenproblem import natural_frequencies
 
 __all__ = ["ModalDamping", "tabulate", "damping_matrix", "TOLERANCE", "INITIAL_SAMPLES",
-           "MAX_LEVEL"]
+           "MAX_LEVEL", "MAX_PHASES"]
 
 #: Largest error of the interpolated damping at an interval's midpoint, relative to 2ζω in
 #: the midpoint's modal basis, before the interval is halved.
@@ -44,6 +44,8 @@ TOLERANCE = 1e-2
 INITIAL_SAMPLES = 16
 #: Halvings at most: intervals of the period no shorter than 1 / (16 · 2⁶) = 1/1024.
 MAX_LEVEL = 6
+#: Phases a table holds at most (its memory: :func:`ced.simulation.size.solver_bytes`).
+MAX_PHASES = INITIAL_SAMPLES * 2**MAX_LEVEL + 1
 #: The floor of the modal scale, as a fraction of the first mode's median over the period.
 FLOOR = 0.1
 #: Phase of the table's first sample. Irrational, so that no set of samples is a set of steps

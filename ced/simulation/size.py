@@ -15,6 +15,7 @@ from decimal import Decimal
 from ..problem.errors import SceneError
 from ..problem.mechanism import topology
 from ..response.batch import MOTION_TURNS, case_family, step_count
+from ..response.modal_damping import MAX_PHASES
 
 __all__ = ["case_bytes", "elastic_dofs", "case_seconds", "solver_bytes", "case_memory",
            "run_memory", "check_run_memory", "cases_per_solve", "machine_memory", "size_text",
@@ -112,7 +113,9 @@ def solver_bytes(scene: dict) -> int:
     change point, whose motion may repeat only every two,
     :attr:`ced.response.batch.Batch.motion_turns`); the modal analysis holds K
     and M (and two factors) at every modal angle at once, 8·4·A·n²; the periodic shooting a
-    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns. With
+    3n × 3n monodromy matrix and its factors, 8·4·9n², and 3n + 1 state columns; modal
+    damping with ζ > 0 its table over the period (:mod:`ced.response.modal_damping`), at most
+    8·(16·2⁶ + 1)·n² (33 phases for a smooth linkage, 161 at a change point). With
     ``outputs.every`` > 1 the displacements are held at every step of the run (the peaks are
     over all of them, :mod:`ced.response.elastic`) where only every n-th is written:
     16·(S + 1)·n for S steps (the independent and the link coordinates).
@@ -135,7 +138,12 @@ def solver_bytes(scene: dict) -> int:
     turns = max(MOTION_TURNS) if case_family(scene) == "change_point" else 1
     period = 8 * turns * scene["time"]["steps_per_revolution"] * (5 * n * n + n)
     history = 16 * (step_count(scene) + 1) * n if scene["outputs"]["every"] > 1 else 0
-    return period + history + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0))
+    damping = scene["damping"]
+    damped = scene["effects"] == "auto" or "damping" in scene["effects"]
+    table = (8 * MAX_PHASES * n * n
+             if damped and damping["model"] == "modal" and damping["ratio"] > 0 else 0)
+    return (period + history + table
+            + 8 * 4 * n * n * (modal["angles"] + (9 if shooting else 0)))
 
 
 #: Bytes of solver working arrays one batch may hold: a larger batch is solved in parts

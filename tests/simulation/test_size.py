@@ -120,3 +120,17 @@ def test_a_thinned_history_counts_the_displacements_at_every_step():
                           "outputs": {"every": every}}) for every in (1, 8)]
     n, steps = elastic_dofs(scenes[0]), step_count(scenes[0])
     assert solver_bytes(scenes[1]) - solver_bytes(scenes[0]) == 16 * (steps + 1) * n > 0
+
+
+def test_modal_damping_counts_its_table():
+    # ζ > 0 holds a table of C over the period (ced.response.modal_damping): the estimate
+    # counts its largest, which bounds the change point's (its phases most refined).
+    from ced.response.batch import make_batch
+    from ced.response.model import build_model
+    from ced.simulation.size import elastic_dofs, solver_bytes
+    from tests.response.test_modal_damping import _scene
+    damped, undamped = _scene(), _scene(damping={"model": "modal", "ratio": 0.0})
+    table = solver_bytes(damped) - solver_bytes(undamped)
+    assert table == 8 * (16 * 2**6 + 1) * elastic_dofs(damped) ** 2
+    model = build_model(make_batch([damped]))
+    assert model.modal_damping.matrix.nbytes <= table
