@@ -60,10 +60,11 @@ class ModalDamping:
     """C(t) of a batch tabulated over the phase of its rigid motion's period.
 
     ``phase`` (case, sample), the samples' fractions of the period after :data:`OFFSET`,
-    ascending from 0 to 1 (the same in every case; 1 repeats 0); ``matrix`` (case, sample, ny, ny) N s/m in the
-    model's elastic coordinates; ``turns`` (case,) input turns of the period
-    (:attr:`ced.response.batch.Batch.motion_turns`). No speed: a model serves batches at any
-    speed (:mod:`ced.response.model_cache`), and the configuration is a function of the phase.
+    ascending from 0 to 1 (the same in every case; 1 repeats 0); ``matrix``
+    (case, sample, ny, ny) N s/m in the model's elastic coordinates; ``turns`` (case,) input
+    turns of the period (:attr:`ced.response.batch.Batch.motion_turns`). No speed: a model
+    serves batches at any speed (:mod:`ced.response.model_cache`), and the configuration is
+    a function of the phase.
     """
 
     phase: np.ndarray
