@@ -169,3 +169,34 @@ def test_a_structure_that_does_not_turn_keeps_the_damping_of_its_start():
                                                terms.elastic_stiffness[:, 0], 0.05)
     np.testing.assert_allclose(table.matrix[0], np.broadcast_to(start, table.matrix.shape[1:]),
                                rtol=0, atol=1e-9 * np.abs(start).max())
+
+
+WATT_II = {"type": "watt_ii", "ground": 0.5, "crank": 0.1, "coupler": 0.45, "rocker": 0.35,
+           "rocker_arm": 0.25, "rocker_arm_angle": 2.5, "coupler2": 0.4, "rocker2": 0.3,
+           "pivot2_x": 0.2, "pivot2_y": -0.3}
+# A double rocker driven by its rocking input, θ = θ_mid + A sin(Ωt): the period is 2π/Ω.
+DOUBLE_ROCKER = {"type": "four_bar", "ground": 0.5, "crank": 0.35, "coupler": 0.1,
+                 "rocker": 0.45}
+
+
+@pytest.mark.parametrize("mechanism, links, drive", [
+    (WATT_II, {"crank": {"flexible": False}, "rocker": {"flexible": False}},
+     {"speed": 60.0}),
+    (DOUBLE_ROCKER, {"crank": {"flexible": False}}, {"speed": 40.0, "amplitude": 0.9}),
+], ids=["watt_ii", "rocking_input"])
+def test_every_mode_gets_the_ratio_in_a_six_bar_and_under_a_rocking_input(mechanism, links,
+                                                                          drive):
+    scene = load_scene({"mechanism": mechanism, "links": links, "drive": drive,
+                        "effects": ["inertia", "elastic_inertia", "damping"],
+                        "damping": {"model": "modal", "ratio": RATIO},
+                        "discretization": {"elements_per_link": 4},
+                        "time": {"revolutions": 1, "steps_per_revolution": 64}})
+    model = build_model(make_batch([scene]))
+    times = np.linspace(0.0, 2 * np.pi / drive["speed"], 13)[None, :] + 1e-3
+    terms, _ = terms_at(model, times, model.effects, frozenset({"elastic_mass",
+                                                                "elastic_stiffness"}))
+    C = model.modal_damping.at(times, model.batch.speed)
+    modal, omega = _modal(terms.elastic_mass, terms.elastic_stiffness, C)
+    zeta = np.diagonal(modal, axis1=-2, axis2=-1) / (2 * omega)
+    np.testing.assert_allclose(zeta[..., :6], RATIO, rtol=modal_damping.TOLERANCE)
+    assert np.isfinite(simulate(scene).peak_stress).all()
