@@ -239,11 +239,18 @@ def _evaluate_at_points(model: Model, steps: int, points: int, cases: np.ndarray
     if 2 * len(cases) < model.batch.size:
         sub = model_for(make_batch([model.batch.scenes[i] for i in cases]))
         exact = evaluate_terms(sub, sub.batch.step_size, phases)
-        return {name: exact.get(name) for name in _TERMS}
-    exact = evaluate_terms(model, model.batch.step_size, phases)
-    whole = len(cases) == model.batch.size
-    return {name: (None if exact.get(name) is None else exact[name] if whole else
-                   np.ascontiguousarray(exact[name][cases])) for name in _TERMS}
+        out = {name: exact.get(name) for name in _TERMS}
+    else:
+        exact = evaluate_terms(model, model.batch.step_size, phases)
+        whole = len(cases) == model.batch.size
+        out = {name: (None if exact.get(name) is None else exact[name] if whole else
+                      np.ascontiguousarray(exact[name][cases])) for name in _TERMS}
+    if model.modal_damping is not None and "damping" in model.effects:
+        # evaluate_terms leaves the modal damping to its callers (its own table)
+        times = model.batch.step_size[cases, None] * phases[None, :]
+        modal = model.modal_damping.at(times, model.batch.speed[cases], cases)
+        out["damping"] = modal if out["damping"] is None else out["damping"] + modal
+    return out
 
 
 def _blocks(cases: np.ndarray, points: int, model: Model) -> list[np.ndarray]:

@@ -71,20 +71,25 @@ class ModalDamping:
     matrix: np.ndarray
     turns: np.ndarray
 
-    def at(self, times: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    def at(self, times: np.ndarray, speed: np.ndarray,
+           cases: np.ndarray | None = None) -> np.ndarray:
         """C at ``times`` (case, step) s of cases at input ``speed`` (case,) rad/s.
+
+        ``cases`` (optional, int): the table's cases the rows of ``times`` and ``speed`` are
+        (default: all, in order).
 
         Returns
         -------
         numpy.ndarray
             (case, step, ny, ny) N s/m.
         """
-        period = 2.0 * math.pi * self.turns / speed  # (case,) s
+        rows = np.arange(len(self.turns)) if cases is None else np.asarray(cases)
+        period = 2.0 * math.pi * self.turns[rows] / speed  # (case,) s
         phase = np.mod(times / period[:, None] - OFFSET, 1.0)
         grid = self.phase[0]
         lower = np.clip(np.searchsorted(grid, phase, side="right") - 1, 0, len(grid) - 2)
         w = ((phase - grid[lower]) / (grid[lower + 1] - grid[lower]))[..., None, None]
-        rows = np.arange(times.shape[0])[:, None]
+        rows = rows[:, None]
         return (1.0 - w) * self.matrix[rows, lower] + w * self.matrix[rows, lower + 1]
 
 

@@ -433,6 +433,7 @@ def terms_at(
     effects: set[str] | None = None,
     extras: frozenset[str] = frozenset(),
     compact: bool = False,
+    modal_damping: bool = True,
 ) -> tuple[SystemTerms, np.ndarray]:
     """System terms and the projection value at arbitrary times (case, step).
 
@@ -452,6 +453,10 @@ def terms_at(
         Extra terms to form: ``"elastic_mass"``, ``"elastic_stiffness"``.
     compact : bool, optional
         Return the projection's rows ``layout.projection_rows`` only (the others are zero).
+    modal_damping : bool, optional
+        Add the modal damping's table (:mod:`ced.response.modal_damping`); False leaves it
+        to the caller, which adds it where the terms are no longer sampled: it is piecewise
+        linear in time, not smooth like the rest (:func:`ced.response.period_terms.period_terms`).
 
     Returns
     -------
@@ -529,7 +534,7 @@ def terms_at(
     if sleeve_forces is not None:
         _add_sleeve_stiffness(layout, motion, P[0], sleeve_forces, terms.stiffness)
     if "damping" in effects:
-        _add_damping(model, terms, times)
+        _add_damping(model, terms, times, modal_damping)
     rows = layout.projection_rows
     if compact:
         return terms, P[0, ..., : len(rows), :]
@@ -581,14 +586,14 @@ def _add_sleeve_stiffness(layout: Layout, motion, P0: np.ndarray, sleeve_forces:
                                                   + w[..., :, None] * z_phi[..., None, :])
 
 
-def _add_damping(model: Model, terms: SystemTerms, times: np.ndarray) -> None:
+def _add_damping(model: Model, terms: SystemTerms, times: np.ndarray, modal: bool) -> None:
     d = model.batch.scenes[0]["damping"]
     if d["model"] == "rayleigh":
         extra = d["alpha"] * terms.elastic_mass + d["beta"] * terms.elastic_stiffness
-    elif model.modal_damping is not None:
+    elif model.modal_damping is not None and modal:
         extra = model.modal_damping.at(times, model.batch.speed)
     else:
-        return  # modal, ζ = 0
+        return  # modal, ζ = 0, or left to the caller
     terms.damping = extra if terms.damping is None else terms.damping + extra
 
 

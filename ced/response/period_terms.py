@@ -32,7 +32,7 @@ from .model import Model, terms_at
 from .model_cache import kept_terms
 from .step_pattern import StepOrder, nonzero_pattern, pack, step_order, unpack
 
-__all__ = ["PeriodTerms", "period_terms", "with_sparsity", "evaluate_terms",
+__all__ = ["PeriodTerms", "period_terms", "with_sparsity", "with_modal_damping", "evaluate_terms",
            "interpolate_periodic", "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
 
 #: Samples per period to start from (doubled until the interpolation error is small enough).
@@ -278,8 +278,9 @@ def _evaluate(model: Model, times: np.ndarray) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for start in range(0, times.shape[1], chunk):
         part = times[:, start:start + chunk]
-        # The projection's rows that can be nonzero only (Layout.projection_rows).
-        terms, P = terms_at(model, part, compact=True)
+        # The projection's rows that can be nonzero only (Layout.projection_rows); the modal
+        # damping is added by the callers from its table (with_modal_damping).
+        terms, P = terms_at(model, part, compact=True, modal_damping=False)
         parts = {"projection": P,
                  **{name: getattr(terms, name) for name in _NAMES[:-1]
                                      if getattr(terms, name) is not None}}
@@ -327,7 +328,18 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
     -------
     PeriodTerms
         M, C, K, F and the projection at the P steps, each (case, P, …).
+
+    The modal damping (:mod:`ced.response.modal_damping`) is not sampled: it is interpolated
+    linearly from its own table, not smooth at its samples, and the check would have every
+    step evaluated for it. It is added at every step from the table (:func:`with_modal_damping`).
     """
+    return with_modal_damping(model, _period_terms(model, h, period, samples, tolerance, exact),
+                              h)
+
+
+def _period_terms(model: Model, h: np.ndarray, period: int, samples: int, tolerance: float,
+                  exact: bool) -> PeriodTerms:
+    """:func:`period_terms` but for the modal damping."""
     ncase = model.batch.size
     n = samples
     if not exact and 4 * n <= period:  # else every step costs little more than sampling
@@ -364,6 +376,37 @@ def period_terms(model: Model, h: np.ndarray, period: int, samples: int = SAMPLE
                 full[name] = y
             return _exact(full)
     return _exact(evaluate_terms(model, h, np.arange(period, dtype=float)))
+
+
+def with_modal_damping(model: Model, terms: PeriodTerms, h: np.ndarray) -> PeriodTerms:
+    """``terms`` with the modal damping added at every step of the period from its table
+    (:meth:`ced.response.modal_damping.ModalDamping.at`); ``terms`` itself where there is none.
+
+    Parameters
+    ----------
+    model : Model
+        The batch's model.
+    terms : PeriodTerms
+        Its terms over the period without the modal damping.
+    h : numpy.ndarray
+        Step size per case, s, shape (case,).
+    """
+    if model.modal_damping is None or "damping" not in model.effects:
+        return terms
+
+    def added(damping, steps):
+        modal = model.modal_damping.at(h[:, None] * steps[None, :], model.batch.speed)
+        return modal if damping is None else damping + modal
+
+    dense = {name: terms.dense(name) for name in _MATRICES}
+    dense["damping"] = added(dense["damping"], np.arange(terms.period, dtype=float))
+    sampled = terms.sampled
+    if sampled is not None:  # the samples stand for the terms too (their other users)
+        n = sampled["force"].shape[1]
+        sampled = {**sampled, "damping": added(sampled.get("damping"),
+                                               np.arange(n) * (terms.period / n))}
+    return with_sparsity(dataclasses.replace(terms, order=None, pattern=None, sampled=sampled,
+                                             **dense))
 
 
 def _pattern(values: dict) -> np.ndarray:

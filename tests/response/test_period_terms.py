@@ -177,3 +177,29 @@ def test_a_stencil_seen_before_is_kept_read_only():
     assert interpolation_weights(points, 128)[0] is not index
     with pytest.raises(ValueError, match="read-only"):
         weight[0, 0] = 1.0
+
+
+def test_modal_damping_is_added_from_its_table_not_sampled():
+    # The modal damping's table is piecewise linear in time: sampled with the rest, the
+    # check would have every step evaluated. It is added at every step from the table, the
+    # rest sampled as without it; the terms are those of every step to the tolerance.
+    from ced.response.model import terms_at
+    steps = 512
+    scenes = [load_scene({**FOUR_BAR, "damping": {"model": "modal", "ratio": 0.02},
+                          "drive": {"speed": speed}, "time": {"steps_per_revolution": steps}})
+              for speed in (50.0, 150.0)]
+    batch = make_batch(scenes)
+    model = build_model(batch)
+    period = period_terms(model, batch.step_size, steps)
+    assert period.samples < steps
+    times = batch.step_size[:, None] * np.arange(steps)[None, :]
+    terms, _ = terms_at(model, times)
+    for name in ("mass", "damping", "stiffness"):
+        want = getattr(terms, name)
+        error = np.abs(period.dense(name) - want).max() / np.abs(want).max()
+        assert error <= TOLERANCE, name
+    # and the samples kept for the terms' other users carry it too
+    n = period.sampled["force"].shape[1]
+    at = np.arange(n) * (steps // n)
+    np.testing.assert_allclose(period.sampled["damping"], terms.damping[:, at],
+                               rtol=0, atol=TOLERANCE * np.abs(terms.damping).max())
