@@ -90,7 +90,13 @@ class ModalDamping:
         lower = np.clip(np.searchsorted(grid, phase, side="right") - 1, 0, len(grid) - 2)
         w = ((phase - grid[lower]) / (grid[lower + 1] - grid[lower]))[..., None, None]
         rows = rows[:, None]
-        return (1.0 - w) * self.matrix[rows, lower] + w * self.matrix[rows, lower + 1]
+        # In place: the result is a period's worth of dense matrices, its temporaries as large
+        out = self.matrix[rows, lower]
+        out *= 1.0 - w
+        upper = self.matrix[rows, lower + 1]
+        upper *= w
+        out += upper
+        return out
 
 
 def damping_matrix(mass: np.ndarray, stiffness: np.ndarray, ratio: float

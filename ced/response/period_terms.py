@@ -405,8 +405,9 @@ def with_modal_damping(model: Model, terms: PeriodTerms, h: np.ndarray) -> Perio
         n = sampled["force"].shape[1]
         sampled = {**sampled, "damping": added(sampled.get("damping"),
                                                np.arange(n) * (terms.period / n))}
-    return with_sparsity(dataclasses.replace(terms, order=None, pattern=None, sampled=sampled,
-                                             **dense))
+    # Dense: C = MΦ diag(2ζω)ΦᵀM couples every DOF (no pattern to scan for).
+    return dataclasses.replace(terms, order=None, pattern=np.ones((terms.n, terms.n), bool),
+                               sampled=sampled, **dense)
 
 
 def _pattern(values: dict) -> np.ndarray:
