@@ -32,8 +32,9 @@ from .model import Model, terms_at
 from .model_cache import kept_terms
 from .step_pattern import StepOrder, nonzero_pattern, pack, step_order, unpack
 
-__all__ = ["PeriodTerms", "period_terms", "with_sparsity", "with_modal_damping", "evaluate_terms",
-           "interpolate_periodic", "interpolation_weights", "SAMPLES", "TOLERANCE", "STENCIL"]
+__all__ = ["PeriodTerms", "period_terms", "with_sparsity", "with_modal_damping",
+           "evaluate_terms", "interpolate_periodic", "interpolation_weights", "SAMPLES",
+           "TOLERANCE", "STENCIL"]
 
 #: Samples per period to start from (doubled until the interpolation error is small enough).
 SAMPLES = 64
