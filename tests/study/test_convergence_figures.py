@@ -223,3 +223,30 @@ def test_write_accuracy_summary(tmp_path):
     assert "## References" in md and "± 0.02 %" in md
     for png, svg in [*figures.values(), estimate]:
         assert (tmp_path / png).stat().st_size > 1000 and (tmp_path / svg).stat().st_size > 1000
+
+
+def test_an_uncertain_reference_claims_no_error_it_cannot_see():
+    """A family whose reference is uncertain by 9 % (the change point's, whose peak still
+    moves with the step): the accuracy table verifies only 10 %, with the uncertainty added
+    to each setting's error, and says so for 1 % and 0.1 %; the auto table shows no number
+    for its true error."""
+    from ced.study.convergence import accuracy_table
+
+    uncertain = synthetic("change_point")
+    uncertain["reference_peak_stress"].attrs["uncertainty"] = 0.09
+    table = accuracy_table({"change_point": uncertain}).set_index("target")
+    errors = uncertain.error_peak_stress.values
+    meeting = errors + 0.09 < 0.1
+    assert 0 < meeting.sum() < (errors < 0.1).sum()  # the uncertainty changed the choice
+    best = int(np.flatnonzero(meeting)[np.argmin(uncertain.solve_time.values[meeting])])
+    assert table.loc[0.1, "ms_per_case"] == pytest.approx(1e3 * uncertain.solve_time.values[best])
+    for target in (0.01, 0.001):
+        assert table.loc[target, "setting"] == "not verifiable: reference uncertain by 9 %"
+        assert np.isnan(table.loc[target, "error"])
+    text = accuracy_markdown({"change_point": uncertain, "crank_rocker": synthetic()},
+                             accuracy_table({"change_point": uncertain}), {})
+    auto = text[text.index("## `discretization: auto`"):text.index("## References")]
+    rows = [line for line in auto.splitlines() if line.startswith("| change_point")]
+    assert len(rows) == 3 and all("unknown (reference uncertain)" in r for r in rows)
+    known = [line for line in auto.splitlines() if line.startswith("| crank_rocker | 0.01 |")]
+    assert "| 0.004 |" in known[0]  # a family known to 1 % keeps its true error
