@@ -178,10 +178,14 @@ def _clip_flagged(ax, values: np.ndarray, ok: np.ndarray, flagged: np.ndarray,
                   allowable: float | None = None) -> None:
     """Keep the axis within a hundred times the unflagged cases' largest value (and ten times
     the allowable stress): only blown-up responses (an unstable case at 1e8 MPa) are left
-    above, and counted, so that they do not squeeze the rest — resonance peaks stay drawn."""
-    if not ok.any() or ax.get_yscale() != "log":
+    above, and counted, so that they do not squeeze the rest — resonance peaks stay drawn.
+    Where every case is flagged (a family of change points, all near-singular) the flagged
+    cases' median stands for the unflagged ones' largest value: their bulk stays drawn and
+    the blown-up ones (1e13 MPa at the change point itself) are counted above."""
+    if ax.get_yscale() != "log" or not (ok.any() or flagged.any()):
         return
-    top = max(100.0 * float(np.nanmax(values[ok])), 10.0 * (allowable or 0.0))
+    bulk = np.nanmax(values[ok]) if ok.any() else np.nanmedian(values[flagged])
+    top = max(100.0 * float(bulk), 10.0 * (allowable or 0.0))
     above = int((flagged & (values > top)).sum())
     if above:
         ax.set_ylim(top=top)

@@ -167,3 +167,23 @@ def test_estimate_figure_counts_the_unflagged_cases(maps):
             ok = ds.status.values == 0
             unflagged += int(np.isfinite(ds.error_estimate.values[ok]).sum())
     assert f"the {unflagged} unflagged cases" in png.with_suffix(".svg").read_text()
+
+
+def test_blown_up_flagged_cases_are_counted_above_the_axis():
+    """The overview's log axes end at 100× the unflagged cases' largest value, or, in a family
+    whose every case is flagged (the change points), at 100× the flagged cases' median: the
+    1e13 MPa of a case on the change point itself is counted above, not drawn."""
+    import matplotlib.pyplot as plt
+
+    from ced.study.figures import _clip_flagged
+
+    values = np.array([3.0, 10.0, 20.0, 8.0, 5e12, 1e13, 2e13])
+    # unflagged 3, 10, 8: top 100 × 10; all flagged: 100 × their median, 20
+    for ok, top in ((values < 15.0, 1e3), (np.zeros(7, bool), 2e3)):
+        fig, ax = plt.subplots()
+        ax.scatter(np.arange(7), values)
+        ax.set_yscale("log")
+        _clip_flagged(ax, values, ok, ~ok)
+        assert ax.get_ylim()[1] == pytest.approx(top)
+        assert [t.get_text() for t in ax.texts] == ["▲ 3 flagged above"]
+        plt.close(fig)
