@@ -28,7 +28,7 @@ import xarray as xr  # noqa: E402
 
 from ..io import open_dataset  # noqa: E402
 from .convergence import UNRESOLVED  # noqa: E402
-from .figures import save  # noqa: E402
+from .figures import plain_ticks, save  # noqa: E402
 
 __all__ = ["QUANTITIES", "group_label", "pareto_front", "pareto_figure", "estimate_figure",
            "accuracy_markdown", "write_pareto_figure", "write_accuracy_summary"]
@@ -182,10 +182,13 @@ def pareto_figure(ds: xr.Dataset) -> plt.Figure:
                 if line.size > 1:
                     ax.plot(time_ms[line], error[line], color=colour, lw=0.7, alpha=0.6,
                             zorder=2, gid="refinement")
-        front = pareto_front(time_ms, error)
+        # Below the reference's uncertainty errors are not resolved: the front does not go
+        # there (it stops at the band, which says "no better known").
+        front = pareto_front(time_ms, np.maximum(error, np.nan_to_num(_uncertainty(ds, ref))))
         if front.size:
-            ax.step(time_ms[front], error[front], where="post", color="k", lw=1.2, zorder=4,
-                    label="Pareto front", gid="pareto")
+            floor = np.nan_to_num(_uncertainty(ds, ref))
+            ax.step(time_ms[front], np.maximum(error[front], floor), where="post", color="k",
+                    lw=1.2, zorder=4, label="Pareto front", gid="pareto")
         hidden = int((~usable).sum())
         if hidden:
             ax.plot([], [], " ", label=f"{hidden} setting(s) with zero/NaN error not shown")
@@ -202,6 +205,7 @@ def pareto_figure(ds: xr.Dataset) -> plt.Figure:
             ax.set_xlim(1e-1, 1e3)
             ax.set_ylim(1e-5, 1.0)
         _uncertainty_band(ax, ds, ref)
+        plain_ticks(ax.xaxis)  # a time range under a decade labelled every minor tick, crowded
         ax.set_xlabel("solve time per case [ms]")
         ax.set_ylabel(f"relative error of {title}")
         ax.set_title(f"{title} — {_reference_text(ds, ref, unit, scale)}", fontsize=9)
@@ -220,13 +224,21 @@ def _auto_markers(ax, ds: xr.Dataset, time_ms: np.ndarray, error: np.ndarray) ->
     auto_e = np.abs(np.asarray(ds.auto_error.values, float)) if "auto_error" in ds \
         else np.full(tolerances.shape, np.nan)
     ok = _usable(auto_t, auto_e)
+    uncertainty = _uncertainty(ds, "reference_peak_stress")
+    if uncertainty >= 1e-2:  # as the accuracy table: its true error is not known
+        ok[:] = False
+        ax.plot([], [], " ", label=f"auto: true error unknown (reference ± "
+                                   f"{100 * uncertainty:.2g} %)")
     ax.scatter(auto_t[ok], auto_e[ok], marker="*", s=140, color="gold", edgecolor="k",
                linewidth=0.6, zorder=6, label="auto discretization (tolerance →)", gid="auto")
     tick = _usable(auto_t, tolerances)
     ax.scatter(auto_t[tick], tolerances[tick], marker="_", s=220, color="k", linewidth=1.5,
                zorder=6, label="tolerance asked for", gid="tolerance")
-    for t, e, tol in zip(auto_t[ok], auto_e[ok], tolerances[ok]):
-        ax.annotate(f"{100 * tol:g} %", (t, e), textcoords="offset points", xytext=(6, -3),
+    labels: dict[tuple[float, float], list[str]] = {}
+    for t, e, tol in zip(auto_t[ok], auto_e[ok], tolerances[ok]):  # one label a star drawn
+        labels.setdefault((float(t), float(e)), []).append(f"{100 * tol:g} %")
+    for (t, e), text in labels.items():
+        ax.annotate(", ".join(text), (t, e), textcoords="offset points", xytext=(6, -3),
                     fontsize=6)
     if "cheapest_solve_time" not in ds:
         return

@@ -250,3 +250,24 @@ def test_an_uncertain_reference_claims_no_error_it_cannot_see():
     assert len(rows) == 3 and all("unknown (reference uncertain)" in r for r in rows)
     known = [line for line in auto.splitlines() if line.startswith("| crank_rocker | 0.01 |")]
     assert "| 0.004 |" in known[0]  # a family known to 1 % keeps its true error
+
+
+def test_pareto_figure_claims_nothing_below_the_reference_uncertainty():
+    """With the reference uncertain by 9 % (the change point's): the front stops at the band
+    (nothing is known to be better), no auto star is drawn at an error that reference cannot
+    see, and the legend says why; stars at the same point share one label."""
+    ds = synthetic("change_point")
+    ds["reference_peak_stress"].attrs["uncertainty"] = 0.09
+    stress = pareto_figure(ds).axes[0]
+    front = by_gid(stress, "pareto")[0]
+    assert min(front.get_ydata()) == pytest.approx(0.09)
+    assert np.all(np.diff(front.get_xdata()) > 0)
+    assert n_points(by_gid(stress, "auto")) == 0
+    assert any("true error unknown (reference ± 9 %)" in t.get_text()
+               for t in stress.get_legend().get_texts())
+    assert n_points(by_gid(stress, "tolerance")) == len(TOLERANCES)  # where auto's time is
+    known = synthetic()
+    known["auto_error"] = ("tolerance", np.array([4e-3, 4e-3, 4e-3]))
+    known["auto_solve_time"] = ("tolerance", np.array([0.02, 0.02, 0.02]))
+    stress = pareto_figure(known).axes[0]
+    assert [t.get_text() for t in stress.texts] == ["1 %, 0.1 %, 0.01 %"]
