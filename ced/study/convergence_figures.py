@@ -143,11 +143,12 @@ def pareto_figure(ds: xr.Dataset) -> plt.Figure:
 
     One colour and marker per (formulation, modes per link, integrator) group; thin lines join
     the settings of a group with equal elements per link as the steps per revolution grow; the
-    black step line is the Pareto front over all settings; the grey band at the bottom is the
-    reference's own relative uncertainty (errors below it are not resolved). On the peak-stress
-    panel, stars are the automatic discretization for each tolerance (its true error of peak
-    stress against its solve time), with the tolerance itself as a horizontal tick at the same
-    time, and rings mark the cheapest sweep setting that meets each tolerance (none drawn where
+    black step line is the Pareto front over all settings, which stops at the grey band at the
+    bottom, the reference's own relative uncertainty (errors below it are not resolved). On the
+    peak-stress panel, stars are the automatic discretization for each tolerance (its true
+    error of peak stress against its solve time; none where the reference is uncertain by 1 %
+    or more, which the legend says), with the tolerance itself as a horizontal tick at the
+    same time, and rings mark the cheapest sweep setting that meets each tolerance (none drawn where
     no setting does). Settings whose error is zero, negative or NaN (not drawable on a log
     axis) are counted in the panel's legend.
 
