@@ -142,6 +142,30 @@ def _value(sl: xr.Dataset) -> tuple[xr.DataArray, str]:
     return sl.peak_input_torque, "peak input torque [N m]"
 
 
+def _colour_norm(slices: list[xr.Dataset], error_tolerance: float):
+    """The maps' log colour scale and whether it is clipped: up to a hundred times the largest
+    value of a case not flagged resonant or unstable (where every case is, their median), so
+    that one blown-up case (1e14 MPa at a change point) does not squeeze the others into one
+    colour; cells above take the scale's top colour (the colour bar's arrow), and each is
+    marked resonant / unstable anyway."""
+    from matplotlib.colors import LogNorm
+
+    values, calm = [], []
+    for sl in slices:
+        value = _value(sl)[0]
+        value = value.transpose(*sl.status.dims).values if "status" in sl else value.values
+        resonant, _ = _confidence(sl, error_tolerance)
+        values.append(value.ravel())
+        calm.append(value[~resonant].ravel())
+    values, calm = np.concatenate(values), np.concatenate(calm)
+    positive = values[np.isfinite(values) & (values > 0)]
+    if not positive.size:
+        return None, False
+    calm = calm[np.isfinite(calm) & (calm > 0)]
+    top = min(positive.max(), 100.0 * (calm.max() if calm.size else np.median(positive)))
+    return LogNorm(positive.min(), top), bool(positive.max() > top)
+
+
 def _confidence(sl: xr.Dataset, error_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
     """(resonant or unstable, other low confidence) masks of the slice's cases, its shape."""
     has = np.isfinite(sl["case"].values)
@@ -253,7 +277,9 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
                   error_tolerance: float = 0.05) -> None:
     """Resonance map of one family from its grid file: a panel per material (columns) and
     section (rows) of the study, colour = peak stress (max over links, log scale; peak input
-    torque where no stress was computed) over input speed × a link length.
+    torque where no stress was computed) over input speed × a link length; the scale ends
+    at a hundred times the largest case not flagged resonant or unstable (:func:`_colour_norm`),
+    cells above taking its top colour (the colour bar's arrow).
 
     Overlaid: the speeds Ω = 2π f₁ / k at which the crank harmonic k·Ω/2π meets the first
     natural frequency f₁, k = 1…5 (solid: lowest f₁ over the cycle, dotted: highest, each the
@@ -278,17 +304,13 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
     error_tolerance : float
         Largest credible error estimate (dimensionless).
     """
-    from matplotlib.colors import LogNorm
-
     with open_dataset(path) as grid:
         grid = grid.load()
     family = str(grid.family.values) if "family" in grid.coords else Path(path).stem
     materials = [str(m) for m in grid.material.values]
     sections = [int(s) for s in grid.section.values] if "section" in grid.dims else [None]
     slices = {(m, s): map_slice(grid, m, s, y, fixed) for m in materials for s in sections}
-    values = np.concatenate([_value(sl)[0].values.ravel() for sl, _, _ in slices.values()])
-    positive = values[np.isfinite(values) & (values > 0)]
-    norm = LogNorm(positive.min(), positive.max()) if positive.size else None
+    norm, clipped = _colour_norm([sl for sl, _, _ in slices.values()], error_tolerance)
     fig, axes = plt.subplots(len(sections), len(materials), squeeze=False,
                              figsize=(5.4 * len(materials), 4.3 * len(sections)),
                              constrained_layout=True)
@@ -311,7 +333,8 @@ def resonance_map(path: str | Path, png: str | Path, svg: str | Path | None = No
         section = _section_label(grid, s)
         ax.set_title(f"{m}{', ' + section if section else ''}\n{shown}", fontsize=8)
     if mesh is not None:
-        bar = fig.colorbar(mesh, ax=axes, shrink=0.9, label=_value(grid)[1])
+        bar = fig.colorbar(mesh, ax=axes, shrink=0.9, label=_value(grid)[1],
+                           extend="max" if clipped else "neither")
         plain_ticks(bar.ax.yaxis)
     labels = {}
     for ax in axes.flat:

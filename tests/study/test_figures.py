@@ -187,3 +187,30 @@ def test_blown_up_flagged_cases_are_counted_above_the_axis():
         assert ax.get_ylim()[1] == pytest.approx(top)
         assert [t.get_text() for t in ax.texts] == ["▲ 3 flagged above"]
         plt.close(fig)
+
+
+def test_resonance_map_colours_are_not_squeezed_by_a_blown_up_case():
+    """The colour scale ends at 100x the largest case not flagged resonant or unstable (every
+    case flagged: their median), with an arrow for the cells above; without a blown-up case it
+    spans the values."""
+    import xarray as xr
+
+    from ced.study.resonance_maps import _colour_norm
+
+    stress = np.array([[1e6, 1e7, 5e7], [2e7, 3e7, 1e20]])  # Pa; one case at 1e14 MPa
+    resonant = STATUS_FLAGS["resonant"]
+
+    def slice_(status):
+        return xr.Dataset({"peak_stress": (("speed", "coupler", "link"), stress[..., None]),
+                           "status": (("speed", "coupler"), status),
+                           "case": (("speed", "coupler"), np.arange(6.0).reshape(2, 3)),
+                           "error_estimate": (("speed", "coupler"), np.full((2, 3), 1e-3))})
+
+    some = np.array([[0, 0, 0], [0, 0, resonant]])
+    norm, clipped = _colour_norm([slice_(some)], 0.02)
+    assert clipped and norm.vmin == pytest.approx(1.0) and norm.vmax == pytest.approx(5e3)
+    norm, clipped = _colour_norm([slice_(np.full((2, 3), resonant))], 0.02)
+    assert clipped and norm.vmax == pytest.approx(100 * 25.0)  # median of 1 … 1e14 MPa: 25
+    stress[1, 2] = 4e7
+    norm, clipped = _colour_norm([slice_(some)], 0.02)
+    assert not clipped and norm.vmax == pytest.approx(50.0)
