@@ -94,7 +94,9 @@ def test_compiled_gmres_equals_the_dense_solve(P, n, seed, damped):
     b = F[0].reshape(-1)
     residual = np.linalg.norm(A @ got.displacement[0].reshape(-1) - b) / np.linalg.norm(b)
     assert residual <= 1.01e-8
-    assert residual == pytest.approx(got.residual[0], rel=1e-3, abs=1e-15)
+    # Equal where it is above round-off; at round-off (a one-iteration exact solve) the two
+    # sums differ by a few ε (3.0e-15 against 2.0e-15 was found, P=12, n=1, seed=4832).
+    assert residual == pytest.approx(got.residual[0], rel=1e-3, abs=1e-13)
     # and the solution is the dense one within what that residual allows (condition number).
     bound = 2 * np.linalg.cond(A) * residual * np.abs(dense).max() + 1e-14
     np.testing.assert_allclose(got.displacement, dense, rtol=0, atol=bound)
