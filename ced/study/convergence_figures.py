@@ -148,8 +148,8 @@ def pareto_figure(ds: xr.Dataset) -> plt.Figure:
     peak-stress panel, stars are the automatic discretization for each tolerance (its true
     error of peak stress against its solve time; none where the reference is uncertain by 1 %
     or more, which the legend says), with the tolerance itself as a horizontal tick at the
-    same time, and rings mark the cheapest sweep setting that meets each tolerance (none drawn where
-    no setting does). Settings whose error is zero, negative or NaN (not drawable on a log
+    same time, and rings mark the cheapest sweep setting that meets each tolerance (none drawn
+    where no setting does). Settings whose error is zero, negative or NaN (not drawable on a log
     axis) are counted in the panel's legend.
 
     Parameters
