@@ -11,7 +11,9 @@ sharing them (:data:`ced.auto.discretization.STRIDE`). Per run: the wall time of
 (all of :func:`~ced.auto.discretization.resolve_discretization`) and of the whole call, and
 their CPU times (the machine is shared: CPU time depends less on the other load), the
 pilot solves, the cases that climbed and the setting chosen. The same sweep from a periodic
-start is timed alike (its ladders vary smoothly in speed). The chosen settings' true error is
+start is timed alike (its ladders vary smoothly in speed), and again with
+``periodic_solver: spectral`` (a Fourier series: no time ladder, its tail bounded instead; its
+true error is measured at all 100 speeds). The marched settings' true error is
 measured at six speeds (the ends, the speed whose ladder sets the steps, and three more)
 against ced's converged value (16 elements, every FE DOF, 32768 steps per revolution), on peak
 stress (what ``tolerance`` is about) and on peak coupler strain (what ``run.py`` compares).
@@ -42,9 +44,13 @@ TOLERANCE = 1e-2
 CHECKED = [0, 20, 27, 50, 75, 99]
 
 
-def scenes(start: str) -> list[dict]:
+def scenes(start: str, solver: str = "shooting") -> list[dict]:
+    time, outputs = {"revolutions": 2, "start": start}, sweep.REFERENCE_SCENE["outputs"]
+    if solver != "shooting":  # the series' steps are its output instants: 128 a revolution
+        time.update(periodic_solver=solver, steps_per_revolution=128)
+        outputs = {**outputs, "error_estimate": True}  # the prediction (no companion solved)
     return [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)}, "tolerance": TOLERANCE,
-             "discretization": "auto", "time": {"revolutions": 2, "start": start}}
+             "discretization": "auto", "time": time, "outputs": outputs}
             for s in sweep.SPEEDS]
 
 
@@ -85,16 +91,17 @@ def timed_auto(raw: list[dict], stride: int) -> tuple[dict, object]:
             "tolerance_unmet": sum(not r["tolerance_met"] for r in reports)}, ds
 
 
-def compare(start: str, repeat: int = 3) -> tuple[dict, dict]:
+def compare(start: str, repeat: int = 3, solver: str = "shooting") -> tuple[dict, dict]:
     """Both resolutions of the sweep, interleaved, ``repeat`` times; the datasets of the last."""
-    raw = scenes(start)
+    raw = scenes(start, solver)
     simulate_module.simulate(raw[:2])  # compile before timing
     runs, last = {"before": [], "after": []}, {}
     for _ in range(repeat):
         for name, stride in (("before", 1), ("after", discretization.STRIDE)):
             row, last[name] = timed_auto(raw, stride)
             runs[name].append(row)
-            print(f"{start} {name} (stride {stride}): {row['seconds_total']:.2f} s, pilots "
+            print(f"{start} {solver} {name} (stride {stride}): {row['seconds_total']:.2f} s, "
+                  f"pilots "
                   f"{row['seconds_pilots']:.2f} s ({row['pilot_share']:.0%}; CPU "
                   f"{row['pilot_share_cpu']:.0%}), "
                   f"{row['pilot_solves']} pilot solves, {row['cases_climbed']} climbed, "
@@ -129,6 +136,31 @@ def true_errors(datasets: dict) -> dict:
     return out
 
 
+def series_true_errors(ds) -> dict:
+    """The spectral sweep's true error on peak stress at every speed, against 32 elements of
+    every FE DOF at 256 collocation points (the series converges exponentially), and how
+    often the estimate bounds it."""
+    converged = simulate_module.simulate([
+        {**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)},
+         "discretization": {"elements_per_link": 32, "modes_per_link": 0},
+         "time": {"revolutions": 1, "start": "periodic", "periodic_solver": "spectral",
+                  "steps_per_revolution": 128, "collocation_points": 256},
+         "outputs": {**sweep.REFERENCE_SCENE["outputs"], "every": 128}}
+        for s in sweep.SPEEDS])
+    error = np.abs(ds.peak_stress.max("link").values
+                   / converged.peak_stress.max("link").values - 1.0)
+    estimate = ds.error_estimate.values
+    out = {"reference": [32, 0, "256 collocation points"], "max_stress_error": float(error.max()),
+           "p95_stress_error": float(np.percentile(error, 95)),
+           "estimate_bounds_true": float(np.mean(error <= estimate)),
+           "max_estimate": float(estimate.max()),
+           "flagged_resonant": int(((ds.status.values & 4) > 0).sum())}
+    print(f"periodic spectral: true error at {len(error)} speeds: max "
+          f"{out['max_stress_error']:.2%}, estimate above it at "
+          f"{out['estimate_bounds_true']:.0%}", flush=True)
+    return out
+
+
 def main() -> None:
     started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     results = {"started": started, "tolerance": TOLERANCE, "cases": len(sweep.SPEEDS),
@@ -138,6 +170,9 @@ def main() -> None:
     results["undeformed"] = runs
     results["undeformed_true_error"] = true_errors(last)
     results["periodic"], _ = compare("periodic", repeat=2)
+    runs, last = compare("periodic", solver="spectral")
+    results["periodic_spectral"] = runs
+    results["periodic_spectral_true_error"] = series_true_errors(last["after"])
     RESULTS.write_text(json.dumps(results, indent=2) + "\n")
     print(f"wrote {RESULTS}")
 

@@ -56,9 +56,9 @@ not guessed:
    damping frozen at the start, before 2026-11-29, it was 11 % off them at the change
    point's 8 elements; docs/accuracy.md).
 5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
-   a sweep (:func:`sweeps`). Every case solves the first rung, with its own modal analysis; the
-   ladders are climbed by every :data:`STRIDE`-th case in the order of speed and the last
-   (:func:`representatives`). A case between two climbers is predicted to err
+   a sweep (:func:`sweeps`). Every marched case solves the first rung, with its own modal
+   analysis; the ladders are climbed by every :data:`STRIDE`-th case in the order of speed
+   and the last (:func:`representatives`). A case between two climbers is predicted to err
    :data:`INTERPOLATION_MARGIN` times the larger of their errors at the chosen setting, and
    that prediction is verified before it is used (:func:`unverified`): where it exceeds
    tolerance / :data:`SAFETY`, or where the same rule applied to a climber from its climbing
@@ -81,6 +81,26 @@ not guessed:
    errors at it sit near tolerance / :data:`SAFETY`, no gap can be bounded by
    :data:`INTERPOLATION_MARGIN` times them, and every case climbs (raising the setting by that
    factor instead would cost more: √3 times the steps).
+
+6. **A Fourier series climbs no time ladder.** With ``periodic_solver: spectral`` the
+   periodic state is a series whose time error is its spectral tail
+   (:mod:`ced.response.collocation`), which its adaptive collocation points keep below
+   ``time.spectral_tail``; ``auto`` sets that to :data:`SERIES_SHARE` of tolerance /
+   :data:`SAFETY` (or the scene's own, where tighter) and adds it to the prediction as a time
+   error that holds at any steps. The pilots are series at the scene's own steps (its output
+   instants): the first rung, the space ladder and the truncation; none of them needs the
+   modal analysis, and a case that does not climb solves no pilot (its first mode decides
+   nothing here). Between climbers :data:`INTERPOLATION_MARGIN` multiplies the measured part
+   only: each case keeps its own tail bound. A case whose pilot is shot instead (near a change
+   point, or GMRES did not converge) climbs the marched ladders like any other, and so does
+   every such case of its sweep that was solved; one predicted as a series but shot in its
+   own solve gets the companions of :mod:`ced.auto.error_estimate` instead of the prediction,
+   and one whose own tail ends above the bound (a resonant series left unresolved) adds the
+   excess to it (:mod:`ced.simulation.simulate`). On the benchmark's sweep from a periodic
+   start (100 speeds, ``tolerance: 1e-2``, ``benchmarks/auto_pilots.json``) this chose 15
+   elements and 4 modes in 0.4 s where the shooting ladders chose 31 elements, 4 modes and
+   3592 steps per revolution in 10–15 s; true error at most 0.10 % at every speed, against 32
+   elements of every FE DOF at 256 points, each within its estimate.
 
 One discretization serves all ``auto`` scenes of a call, the cheapest at which every climber
 is predicted to meet its tolerance (:func:`choose_shared`), so that they share one time grid
@@ -109,7 +129,7 @@ from .error_estimate import TIME_ORDER
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
            "MODE_CHOICES", "choose_shared",
            "choose", "cost", "sweeps", "representatives", "bracket", "unverified", "MODES",
-           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN"]
+           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN", "SERIES_SHARE"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
@@ -165,6 +185,11 @@ INTERPOLATION_MARGIN = 3.0
 #: link of a reduced link, and of a full link (constant + per interior DOF).
 COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.018,
         "step_full_dof": 0.0032}
+#: Share of tolerance / :data:`SAFETY` left to a Fourier series' time error (its spectral
+#: tail, stage 6). The tail falls exponentially with the collocation points, so a tenth costs
+#: at most a doubling of them more than the default 0.5 % does, and leaves the mesh and the
+#: model nine tenths of the budget.
+SERIES_SHARE = 0.1
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
 
@@ -390,8 +415,10 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
 
     Parameters
     ----------
-    ladders : list of (space, time, truncation)
-        Each case's ladders and truncation errors, as for :func:`choose`.
+    ladders : list of (space, time, truncation) or (space, time, truncation, floor)
+        Each case's ladders and truncation errors, as for :func:`choose`, and a time error
+        that holds at any steps (a Fourier series' bound, stage 6; default 0). The steps
+        considered include every time ladder's rungs.
     tolerance : float or array_like
         Target relative error on peak stress, of all cases or of each.
     revolutions, flexible_links
@@ -402,12 +429,15 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
     elements, steps, modes (0: the full mesh) and the largest predicted error. Where no
     setting meets the target, the finest rungs of any of the ladders.
     """
+    floors = np.array([ladder[3] if len(ladder) > 3 else 0.0 for ladder in ladders])
+    ladders = [ladder[:3] for ladder in ladders]
     # Within the ladders: they climb until their finest rungs meet the target with room to
     # spare, so a setting beyond them is only wanted where they did not converge.
-    steps = np.arange(FIRST_STEPS, int(max(t[0][-1] for _, t, _ in ladders)) + 1, 8)
+    rungs = np.concatenate([np.asarray(t[0], float) for _, t, _ in ladders]).astype(int)
+    steps = np.union1d(np.arange(FIRST_STEPS, rungs.max() + 1, 8), rungs)
     elements = _ELEMENTS[_ELEMENTS <= max(x[0][-1] for x, _, _ in ladders)]
     discretization = np.array([predicted_error(x, t, elements[:, None], steps[None, :])
-                               for x, t, _ in ladders])
+                               for x, t, _ in ladders]) + floors[:, None, None]
     bar = np.broadcast_to(np.asarray(tolerance, float), (len(ladders),)) / SAFETY
     best = (np.inf, None)
     for modes in (0,) + tuple(MODE_CHOICES):
@@ -428,7 +458,7 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
         return best[1]
     elements = int(max(x[0][-1] for x, _, _ in ladders))
     steps = int(max(t[0][-1] for _, t, _ in ladders))
-    finest = np.array([predicted_error(x, t, elements, steps) for x, t, _ in ladders])
+    finest = np.array([predicted_error(x, t, elements, steps) for x, t, _ in ladders]) + floors
     modes = min(MODE_CHOICES, key=lambda m: max(cut[m] for _, _, cut in ladders))
     if _full_measured(elements) and bool(cost(elements, steps, revolutions, flexible_links,
                                               modes)[1]):
@@ -461,44 +491,63 @@ def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[li
 
 
 class _Climbed(NamedTuple):
-    """A case's ladders, each (levels, errors), the steps of its space ladder, and the
+    """A case's ladders, each (levels, errors), the steps of its space ladder, the
     truncation of each of :data:`MODE_CHOICES` (modes → relative error) at the finest rung of
-    its time ladder."""
+    its time ladder, and the bound on its time error that holds at any steps: a Fourier
+    series' spectral tail (0 for a marched or shot case, whose time error is its ladder's)."""
 
     space: tuple
     time: tuple
     space_steps: int
     truncation: dict[int, float]
+    time_floor: float = 0.0
 
 
 def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
-           resolved_at: np.ndarray, budget: list[float]) -> list[_Climbed]:
+           resolved_at: np.ndarray, budget: list[float], series: np.ndarray
+           ) -> list[_Climbed]:
     """Stages 1–3 of the module docstring for each scene, batched across them: the time ladder
     from its first rung (``first_peaks``, solved with the modal analysis), then the space
-    ladder at the coarsest time rung within the tolerance that resolves what the time ladder
-    had to (else the finest), and the truncation at the finest time rung."""
-    known = [{0: peak} for peak in first_peaks]
-    n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
+    ladder at the coarsest time rung within the tolerance that
+    resolves what the time ladder had to (else the finest), and the truncation at the finest
+    time rung. A Fourier series (``series``, stage 6) climbs no time ladder: its first rung,
+    at the scene's own steps, is where its space ladder and truncation are measured."""
+    marched = [j for j in range(len(work)) if not series[j]]
+    time_peaks: list[list[float]] = [[peak] for peak in first_peaks]
+    if marched:
+        known = [{0: first_peaks[j]} for j in marched]
+        n_time = int(math.log2(MAX_LADDER_STEPS // FIRST_STEPS)) + 1
 
-    def time_done(j: int, peaks: list[float]) -> bool:
-        steps = FIRST_STEPS << (len(peaks) - 1)
-        return (len(peaks) >= 3 and steps >= resolved_at[j]
-                and ladder_errors(peaks)[-1] <= budget[j])
+        def time_done(k: int, peaks: list[float]) -> bool:
+            steps = FIRST_STEPS << (len(peaks) - 1)
+            return (len(peaks) >= 3 and steps >= resolved_at[marched[k]]
+                    and ladder_errors(peaks)[-1] <= budget[marched[k]])
 
-    time_peaks = _ladder(work, solve, lambda r: ([LADDER_ELEMENTS] * len(work),
-                                                 [FIRST_STEPS << r] * len(work)),
-                         time_done, n_time, known)
-    time_levels = [FIRST_STEPS * 2.0 ** np.arange(len(p)) for p in time_peaks]
-    time_errors = [ladder_errors(p) for p in time_peaks]
-
-    space_steps = []
-    for j, (levels, errors) in enumerate(zip(time_levels, time_errors)):
-        within = np.flatnonzero((errors <= work[j]["tolerance"]) & (levels >= resolved_at[j]))
-        space_steps.append(int(levels[within[0]] if len(within) else levels[-1]))
+        climbed = _ladder([work[j] for j in marched], solve,
+                          lambda r: ([LADDER_ELEMENTS] * len(marched),
+                                     [FIRST_STEPS << r] * len(marched)),
+                          time_done, n_time, known)
+        for j, peaks in zip(marched, climbed):
+            time_peaks[j] = peaks
+    time_levels, time_errors, space_steps, at_steps = [], [], [], []
+    for j, peaks in enumerate(time_peaks):
+        if series[j]:  # its time error is its tail, bounded at any steps: none left to steps
+            levels = np.array([float(work[j]["time"]["steps_per_revolution"])])
+            errors = np.zeros(1)
+            chosen = int(levels[0])
+        else:
+            levels = FIRST_STEPS * 2.0 ** np.arange(len(peaks))
+            errors = ladder_errors(peaks)
+            within = np.flatnonzero((errors <= work[j]["tolerance"])
+                                    & (levels >= resolved_at[j]))
+            chosen = int(levels[within[0]] if len(within) else levels[-1])
+        time_levels.append(levels)
+        time_errors.append(errors)
+        space_steps.append(chosen)
+        at_steps.append(peaks[int(np.flatnonzero(levels == chosen)[0])])
     rungs_x = [2 << r for r in range(int(math.log2(MAX_LADDER_ELEMENTS)))]
     at_ladder_mesh = rungs_x.index(LADDER_ELEMENTS)
-    known = [{at_ladder_mesh: peaks[int(math.log2(steps // FIRST_STEPS))]}
-             for peaks, steps in zip(time_peaks, space_steps)]
+    known = [{at_ladder_mesh: peak} for peak in at_steps]
 
     def space_done(j: int, peaks: list[float]) -> bool:
         return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
@@ -508,9 +557,10 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
     truncation = _truncation(work, solve, [int(levels[-1]) for levels in time_levels],
                              [peaks[-1] for peaks in time_peaks])
     return [_Climbed((np.array(rungs_x[:len(sp)], float), ladder_errors(sp, order=2.0)),
-                     (levels, errors), steps, cut)
-            for sp, levels, errors, steps, cut in zip(space_peaks, time_levels, time_errors,
-                                                      space_steps, truncation)]
+                     (levels, errors), steps, cut,
+                     _series_bound(scene) if in_series else 0.0)
+            for sp, levels, errors, steps, cut, scene, in_series in zip(
+                space_peaks, time_levels, time_errors, space_steps, truncation, work, series)]
 
 
 def _truncation(work: list[dict], solve: Callable, steps: list[int],
@@ -665,8 +715,28 @@ def _flexible_links(scene: dict) -> int:
     return sum(bool(link["flexible"]) for link in scene["links"].values())
 
 
+def _spectral(scene: dict) -> bool:
+    return scene["time"]["periodic_solver"] == "spectral"
+
+
+def _series_bound(scene: dict) -> float:
+    """The bound on a Fourier series' time error that its adaptive collocation keeps, from
+    the scene's tolerance (:data:`SERIES_SHARE` of what a prediction may reach, stage 6), or
+    the scene's own ``time.spectral_tail`` where that is tighter."""
+    return min(scene["time"]["spectral_tail"], SERIES_SHARE * scene["tolerance"] / SAFETY)
+
+
+def _with_series_bound(scene: dict) -> dict:
+    """A spectral scene whose series stops refining at :func:`_series_bound` (others as
+    they are)."""
+    if not _spectral(scene):
+        return scene
+    return {**scene, "time": {**scene["time"], "spectral_tail": _series_bound(scene)}}
+
+
 def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
     # New blocks where it differs, the others shared, as for _pilot.
+    scene = _with_series_bound(scene)
     return {**scene, "time": {**scene["time"], "steps_per_revolution": steps},
             "discretization": {"formulation": "euler_bernoulli", "elements_per_link": elements,
                                "elements_across": 2, "modes_per_link": modes}}
@@ -674,11 +744,14 @@ def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
 
 def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
     elements, steps, modes, predicted = choice
-    return {"own_choice": [elements, steps, modes], "own_predicted_error": predicted,
-            "truncation": {str(m): e for m, e in climbed.truncation.items()},
-            "time_ladder": [[int(n), float(e)] for n, e in zip(*climbed.time)],
-            "space_ladder": [[int(n), float(e)] for n, e in zip(*climbed.space)],
-            "space_ladder_steps_per_revolution": climbed.space_steps}
+    report = {"own_choice": [elements, steps, modes], "own_predicted_error": predicted,
+              "truncation": {str(m): e for m, e in climbed.truncation.items()},
+              "time_ladder": [[int(n), float(e)] for n, e in zip(*climbed.time)],
+              "space_ladder": [[int(n), float(e)] for n, e in zip(*climbed.space)],
+              "space_ladder_steps_per_revolution": climbed.space_steps}
+    if climbed.time_floor:
+        report["time_ladder"] = []  # a series climbs its collocation points instead
+    return report
 
 
 def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = STRIDE
@@ -715,56 +788,99 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     auto = list(representative.values())
     if not auto:
         return scenes, reports
-    work = [scenes[i] for i in auto]
+    # A spectral scene's pilots refine their series to its share of the error budget.
+    work = [_with_series_bound(scenes[i]) for i in auto]
     budget = [s["tolerance"] / (2.0 * SAFETY) for s in work]
 
-    # Stage 1's first rung for every distinct case, with the frozen modal analysis: each case's
-    # own frequencies decide what its time ladder would have to resolve.
+    n = len(work)
     transient = np.array([s["time"]["start"] != "periodic" for s in work])
-    first = [_pilot(s, LADDER_ELEMENTS, FIRST_STEPS) for s in work]
-    for s, rings in zip(first, transient):
-        s["modal"] = {"modes": max(1, MODES * _flexible_links(s)) if rings else 1,
-                      "angles": 4, "mode_shapes": False}
-    solved = solve(first)
-    omega1, omega_top, speed = solved["omega1"], solved["omega_top"], solved["speed"]
-    first_peaks = [float(peak) for peak in solved["peak"]]
-    # The time ladder must resolve (ωh ≤ 1/2) a mode the crank harmonics can excite and, from
-    # a start transient, every mode of the ladders' model: the start rings in all of them, and
-    # rungs that damp them numerically agree without converging.
-    excited = omega1 <= RESONANT_HARMONICS * speed
-    resolved_at = np.where(transient, 2.0 * np.pi * omega_top / speed / RESOLVED,
-                           np.where(excited, 2.0 * np.pi * omega1 / speed / RESOLVED, 0.0))
+    spectral = np.array([_spectral(s) for s in work])
+    omega1, resolved_at = np.full(n, np.nan), np.zeros(n)
+    first_peaks: list[float | None] = [None] * n
+    # Stage 6: a spectral case is taken for a series (no time ladder) until its first rung
+    # says otherwise; one that does not climb is checked by its own solve (simulate).
+    series = spectral.copy()
+    bound = np.array([_series_bound(s) for s in work])
 
+    def first_rungs(cases: list[int]) -> None:
+        """Stage 1's first rung of these cases, where not solved yet. A marched case's carries
+        the frozen modal analysis: its own frequencies decide what its time ladder would have
+        to resolve. A spectral case's is solved at its own steps (its output instants: the
+        series' peak does not depend on them), without one; where it falls back to shooting
+        (near a change point, or GMRES did not converge) it climbs the marched ladders from
+        their first rung like any other case."""
+        todo = [j for j in cases if first_peaks[j] is None and spectral[j]]
+        if todo:
+            solved = solve([_pilot(work[j], LADDER_ELEMENTS,
+                                   work[j]["time"]["steps_per_revolution"]) for j in todo])
+            for j, peak, tail in zip(todo, solved["peak"], solved["tail"]):
+                series[j] = bool(np.isfinite(tail))
+                first_peaks[j] = float(peak) if series[j] else None
+        todo = [j for j in cases if first_peaks[j] is None]
+        if not todo:
+            return
+        first = [_pilot(work[j], LADDER_ELEMENTS, FIRST_STEPS) for j in todo]
+        for s, j in zip(first, todo):
+            s["modal"] = {"modes": max(1, MODES * _flexible_links(s)) if transient[j] else 1,
+                          "angles": 4, "mode_shapes": False}
+        solved = solve(first)
+        for k, j in enumerate(todo):
+            first_peaks[j] = float(solved["peak"][k])
+            omega1[j] = solved["omega1"][k]
+            # The time ladder must resolve (ωh ≤ 1/2) a mode the crank harmonics can excite
+            # and, from a start transient, every mode of the ladders' model: the start rings
+            # in all of them, and rungs that damp them numerically agree without converging.
+            speed = solved["speed"][k]
+            if transient[j]:
+                resolved_at[j] = 2.0 * np.pi * solved["omega_top"][k] / speed / RESOLVED
+            elif omega1[j] <= RESONANT_HARMONICS * speed:
+                resolved_at[j] = 2.0 * np.pi * omega1[j] / speed / RESOLVED
+
+    # Every marched case's first rung: its first mode may need finer steps than its climbing
+    # neighbours' ladders reached (stage 5).
+    first_rungs([j for j in range(n) if not spectral[j]])
     # Stage 5: sweeps climb from representatives; gaps that cannot be trusted are bisected.
     groups = sweeps([_sweep_key(s) for s in work], [s["drive"]["speed"] for s in work])
     climbed = [set(g[representatives(len(g), stride)].tolist()) for g in groups]
+    first_rungs(sorted(j for c in climbed for j in c))
+    # A case shot at its first rung in a sweep of series has a time error no climber's ladder
+    # measured: it climbs its own.
+    for g, c in zip(groups, climbed):
+        if series[g].any():
+            c.update(g[~series[g]].tolist())
     ladders: dict[int, _Climbed] = {}
     choices: dict[int, tuple] = {}
     while True:
         new = sorted(j for c in climbed for j in c if j not in ladders)
+        first_rungs(new)
+        floor = np.where(series, bound, 0.0)
         for j, ladder in zip(new, _climb([work[j] for j in new], solve,
                                          [first_peaks[j] for j in new], resolved_at[new],
-                                         [budget[j] for j in new])):
+                                         [budget[j] for j in new], series[new])):
             ladders[j] = ladder
-            choices[j] = choose(ladder.space, ladder.time, work[j]["tolerance"],
-                                work[j]["time"]["revolutions"], _flexible_links(work[j]),
-                                ladder.truncation)
+            choices[j] = choose_shared(
+                [(ladder.space, ladder.time, ladder.truncation, ladder.time_floor)],
+                work[j]["tolerance"], work[j]["time"]["revolutions"], _flexible_links(work[j]))
         # One discretization for the call, the cheapest at which every climber meets its
         # tolerance: the cases then share one time grid (a dataset has one step dimension)
         # and batch together.
         elements, steps, modes, _ = choose_shared(
-            [(ladders[j].space, ladders[j].time, ladders[j].truncation) for j in ladders],
+            [(ladders[j].space, ladders[j].time, ladders[j].truncation, ladders[j].time_floor)
+             for j in ladders],
             [work[j]["tolerance"] for j in ladders],
             max(s["time"]["revolutions"] for s in work),
             max(_flexible_links(s) for s in work))
         error = {j: float(predicted_error(ladders[j].space, ladders[j].time, elements, steps))
-                 + (ladders[j].truncation[modes] if modes else 0.0) for j in ladders}
+                 + (ladders[j].truncation[modes] if modes else 0.0) + ladders[j].time_floor
+                 for j in ladders}
         more = False
         for g, c in zip(groups, climbed):
             at = sorted(g.tolist().index(j) for j in c)
-            bisect = unverified(at, [error[g[p]] for p in at],
+            # A series' time part is its own (its bound), not interpolated between climbers:
+            # the margin is on the rest.
+            bisect = unverified(at, [error[g[p]] - floor[g[p]] for p in at],
                                 [ladders[g[p]].time[0][-1] for p in at], resolved_at[g],
-                                work[g[0]]["tolerance"] / SAFETY)
+                                work[g[0]]["tolerance"] / SAFETY - floor[g].max())
             c.update(g[bisect].tolist())
             more |= bool(len(bisect))
         if not more:
@@ -776,7 +892,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
         for position, j in enumerate(g):
             i = auto[j]
             report = {"tolerance": work[j]["tolerance"],
-                      "first_frequency": float(omega1[j]) / (2.0 * math.pi),
+                      "first_frequency": (float(omega1[j]) / (2.0 * math.pi)
+                                          if np.isfinite(omega1[j]) else None),
                       "elements_per_link": elements, "steps_per_revolution": steps,
                       "modes_per_link": modes, "formulation": "euler_bernoulli"}
             if j in ladders:
@@ -787,11 +904,16 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
             else:
                 # Not climbed: bounded by its climbing neighbours in speed, verified above.
                 pair = [int(g[below[position]]), int(g[above[position]])]
-                predicted = INTERPOLATION_MARGIN * max(error[k] for k in pair)
+                predicted = INTERPOLATION_MARGIN * max(error[k] - floor[k] for k in pair) \
+                    + floor[j]
                 report.update(ladder="interpolated", ladder_cases=[auto[k] for k in pair],
                               interpolation_margin=INTERPOLATION_MARGIN)
             report.update(predicted_error=predicted,
                           tolerance_met=bool(predicted <= work[j]["tolerance"]))
+            if series[j]:
+                # Its time part is the bound its final series is refined to (``time.
+                # spectral_tail``): ``simulate`` adds what that series' own tail exceeds it by.
+                report.update(time_error="spectral_tail", spectral_tail_bound=bound[j])
             reports[i] = report
     out = list(scenes)
     for i, scene in enumerate(scenes):

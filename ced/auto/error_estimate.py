@@ -55,6 +55,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..problem.scene import SPECTRAL_TAIL
 from ..response.integrators import amplification_matrix, integrator_for
 
 __all__ = ["Companion", "companions", "coarser_steps", "algorithmic_damping", "combine",
@@ -290,6 +291,7 @@ def companions(scene: dict, omega1_h: float = 0.0, collocation_points: int = 0
         else:  # the case was shot: so are its companions
             time["periodic_solver"] = "shooting"
             time["collocation_points"] = "auto"
+            time["spectral_tail"] = SPECTRAL_TAIL
         # Output at least as dense in time as the scene's: the same instants when coarser,
         # every step's worth of the scene's when finer (the peaks are over every step).
         outputs = {**scene["outputs"],

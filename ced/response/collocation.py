@@ -10,10 +10,11 @@ study) turns into an amplitude error of tens of percent at 128 steps per revolut
 
 P is chosen per case. It starts at :data:`START_POINTS` and doubles, up to
 :data:`MAX_POINTS`, while the response's highest resolved harmonics still carry more than
-:data:`TAIL_TOLERANCE` of its peak: the **spectral tail**, the summed amplitude of the signed
-stress's harmonics in the top quarter of the resolved band (3P/8 < k ≤ P/2), largest over
-link, station and fibre, relative to the peak stress. A converged series has a negligible
-tail; one that is cut inside a resonant band does not. Measured on 228 unflagged cases of the
+``time.spectral_tail`` (:data:`TAIL_TOLERANCE` by default) of its peak: the **spectral
+tail**, the summed amplitude of the signed stress's harmonics in the top quarter of the
+resolved band (3P/8 < k ≤ P/2), largest over link, station and fibre, relative to the peak
+stress. A converged series has a negligible tail; one that is cut inside a resonant band
+does not. Measured on 228 unflagged cases of the
 default study against P = 384 (``docs/performance.md``): this ladder put every case within
 2 % (largest error 0.83 %, mean final P 55), where fixed P = 32, 64, 128 left 8, 3 and 1.5 %
 of them outside; the tail was above the true error on 96–97 % of the cases at every P.
@@ -36,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fem.recovery import peaks
+from ..problem.scene import SPECTRAL_TAIL
 from ..fem.recovery_kernel import recover
 from .batch import make_batch
 from .kernels import expand
@@ -67,8 +69,10 @@ MAX_ITERATIONS = 100
 #: default-study crank-rocker at 50 rad/s needed 331 at P = 128 and 173 at P = 256), and
 #: stopping early would leave its series unresolved.
 LADDER_ITERATIONS = 500
-#: Spectral tail above which P doubles (0.5 %: the ladder's largest true error was 0.83 %).
-TAIL_TOLERANCE = 5e-3
+#: Spectral tail above which P doubles by default (0.5 %: the ladder's largest true error was
+#: 0.83 %); a scene sets its own (``time.spectral_tail``; ``discretization: auto`` from its
+#: tolerance).
+TAIL_TOLERANCE = SPECTRAL_TAIL
 #: Peaks are recovered at this many points per collocation point (the series resampled).
 PEAK_SAMPLES = 8
 #: Bytes of collocation terms held at once (cases are solved in blocks of this size).
@@ -94,7 +98,7 @@ class SpectralSteadyState:
     ``tail`` (case,) the spectral tail (module docstring), dimensionless; ``peak_deflection``
     and ``peak_stress`` (case, link) the peaks of the series, m and Pa. ``unresolved`` (case,)
     bool marks the cases of the adaptive ladder whose tail stayed above
-    :data:`TAIL_TOLERANCE` at the last level solved, because the next level's GMRES did not
+    ``time.spectral_tail`` at the last level solved, because the next level's GMRES did not
     converge or :data:`MAX_POINTS` was reached: their series misses harmonics the response
     holds, and the tail is no bound on the error (the caller flags them ``resonant``).
     ``samples`` (case,) object, where asked for: each solved case's series at its collocation
@@ -165,6 +169,7 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
     todo = np.flatnonzero(candidates)
     fixed = batch.scenes[0]["time"]["collocation_points"]
     adaptive = fixed == "auto"
+    threshold = batch.scenes[0]["time"]["spectral_tail"]  # one per batch (its time block)
     points = START_POINTS if adaptive else int(fixed)
     while todo.size:
         retry = []
@@ -204,7 +209,7 @@ def spectral_steady_state(model: Model, period: PeriodTerms | None, candidates: 
             if history:
                 out.displacement[ok] = evaluate(y, 2.0 * np.pi * np.arange(steps) / steps)
             if adaptive:
-                coarse = ok[(tail > TAIL_TOLERANCE) & (True if climb is None else climb[ok])]
+                coarse = ok[(tail > threshold) & (True if climb is None else climb[ok])]
                 if points < MAX_POINTS:
                     retry.append(coarse)
                 else:

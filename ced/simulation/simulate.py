@@ -390,7 +390,8 @@ def _first_frequency(solved: list[tuple], data: dict, order: np.ndarray) -> np.n
 def _peaks(scenes: list[dict], keep_going: bool = False,
            guesses: list | None = None) -> dict[str, np.ndarray]:
     """Peak stress, first and highest natural frequency (rad/s, where the scenes ask for a
-    modal analysis) and speed of scenes solved in batches, in the order given: the solver
+    modal analysis), speed and spectral tail (NaN where the periodic state is not a Fourier
+    series) of scenes solved in batches, in the order given: the solver
     injected into :func:`ced.auto.discretization.resolve_discretization` (pilots) and
     :func:`ced.auto.error_estimate.error_estimates` (companions, ``keep_going``: a group whose
     every case fails leaves NaN instead of raising; ``guesses``, per scene or None: the
@@ -399,7 +400,7 @@ def _peaks(scenes: list[dict], keep_going: bool = False,
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
     out = {key: np.full(len(scenes), np.nan) for key in ("peak", "omega1", "omega_top",
-                                                          "speed")}
+                                                          "speed", "tail")}
     limits = {key: cases_per_solve(scenes[indices[0]]) for key, indices in groups.items()}
     parts = [group[i:i + limits[key]] for key, group in groups.items()
              for i in range(0, len(group), limits[key])]
@@ -414,12 +415,32 @@ def _peaks(scenes: list[dict], keep_going: bool = False,
         failed = (result["status"] & STATUS_FLAGS["failed"]) > 0
         out["peak"][indices] = np.where(failed, np.nan, _case_peak(result["peak_stress"]))
         out["speed"][indices] = batch.speed
+        if "spectral_tail" in result:
+            out["tail"][indices] = np.where(failed, np.nan, result["spectral_tail"])
         if "natural_frequency" in result:
             frequency = result["natural_frequency"]
             out["omega1"][indices] = first_natural_frequency(frequency)
             # the highest mode asked for, at its highest over the cycle
             out["omega_top"][indices] = first_natural_frequency(frequency[:, :, -1:])
     return out
+
+
+def _auto_estimates(reports: list[dict], tail: np.ndarray | None) -> dict[int, float]:
+    """``error_estimate`` of the cases ``discretization: auto`` resolved: their predicted
+    error (the ladders are their companions). A case predicted as a Fourier series adds
+    what its own series' tail exceeds the bound it was refined to (a series left unresolved
+    at the most points, flagged ``resonant``); one that was shot in the end after all is
+    left to the companions of :func:`ced.auto.error_estimate.error_estimates`."""
+    known = {}
+    for i, report in enumerate(reports):
+        if not report:
+            continue
+        if report.get("time_error") != "spectral_tail":
+            known[i] = report["predicted_error"]
+        elif tail is not None and np.isfinite(tail[i]):
+            known[i] = report["predicted_error"] + max(
+                0.0, float(tail[i]) - report["spectral_tail_bound"])
+    return known
 
 
 def simulate(scenes) -> xr.Dataset:
@@ -496,14 +517,17 @@ def simulate(scenes) -> xr.Dataset:
             lambda: _first_frequency(solved, data, order),
             np.concatenate([b.step_size for b in batches])[order],
             lambda companions, guesses: _peaks(companions, True, guesses)["peak"],
-            known={i: r["predicted_error"] for i, r in enumerate(reports) if r},
+            known=_auto_estimates(reports, data.get("spectral_tail")),
             spectral_tail=data.get("spectral_tail"),
             collocation_points=data.get("collocation_points"),
             guesses=None if samples is None else [
                 g if isinstance(g, np.ndarray) else None for g in samples])
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
-        unmet = np.array([bool(r) and not r["tolerance_met"] for r in reports])
+        estimate = data.get("error_estimate")
+        unmet = np.array([bool(r) and (not r["tolerance_met"] or (
+            estimate is not None and estimate[i] > r["tolerance"]))
+            for i, r in enumerate(reports)])
         data["status"] = np.where(unmet, data["status"] | STATUS_FLAGS["tolerance_unmet"],
                                   data["status"]).astype(data["status"].dtype)
     if auto_reports is not None:

@@ -9,7 +9,8 @@ from hypothesis import given, settings, strategies as st
 
 from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, INTERPOLATION_MARGIN,
                                      MAX_LADDER_STEPS, MODE_CHOICES, MODES,
-                                     RESONANT_HARMONICS, SAFETY, _full_cost, _reduced_cost,
+                                     RESONANT_HARMONICS, SAFETY, SERIES_SHARE, _full_cost,
+                                     _reduced_cost,
                                      _sweep_key, bracket, choose, cost, interpolate,
                                      ladder_errors, predicted_error, representatives,
                                      resolve_discretization, sweeps, unverified)
@@ -529,3 +530,108 @@ def test_every_case_climbing_gives_each_case_its_own_ladders():
         for key in ("own_choice", "own_predicted_error", "time_ladder", "space_ladder"):
             assert report[key] == alone[key]
         assert report["ladder"] == "own"
+
+
+def series_sweep(speeds, tolerance=1e-2, steps=256):
+    return [load_scene(reference_raw(
+        discretization="auto", tolerance=tolerance, drive={"speed": float(v)},
+        name=f"{v:g} rad/s", time={"revolutions": 1, "steps_per_revolution": steps,
+                                   "start": "periodic", "periodic_solver": "spectral"}))
+        for v in speeds]
+
+
+def series_solver(space_error, shot=lambda speed: False, log=None):
+    """A solve() of spectral pilots: a series (tail 1e-7, peak 1 + space_error(elements,
+    speed), no time error) where ``shot(speed)`` is false, else marched (tail NaN, a time
+    error 20/s² added); ``log`` gets (speed, elements, steps, spectral_tail) per pilot."""
+    def solve(scenes):
+        out = {k: [] for k in ("peak", "omega1", "omega_top", "speed", "tail")}
+        for s in scenes:
+            ne = s["discretization"]["elements_per_link"]
+            spr = s["time"]["steps_per_revolution"]
+            speed = s["drive"]["speed"]
+            if log is not None:
+                log.append((speed, ne, spr, s["time"]["spectral_tail"]))
+            marched = shot(speed)
+            out["peak"].append(1.0 + space_error(ne, speed) - (20.0 / spr**2 if marched else 0))
+            out["tail"].append(np.nan if marched else 1e-7)
+            out["omega1"].append(1e9 if s["modal"] else np.nan)
+            out["omega_top"].append(1e9 if s["modal"] else np.nan)
+            out["speed"].append(speed)
+        return {k: np.array(v) for k, v in out.items()}
+    return solve
+
+
+def test_a_series_climbs_no_time_ladder_and_keeps_its_tail_within_its_share():
+    # With periodic_solver: spectral the time error is the series' tail, which its adaptive
+    # points keep below SERIES_SHARE of the budget: no pilot leaves the scene's own steps, the
+    # space ladder and the truncation are climbed as usual, and the prediction carries the
+    # tail's bound on top of the space error, which grows steeply with speed (the fastest case
+    # sets the mesh and bounds the others, test_a_sweep_climbs_from_representatives...).
+    speeds = np.linspace(90.0, 110.0, 17)
+
+    def space(ne, speed):
+        return 0.3 * (speed / 110.0) ** 12 / ne**3
+
+    log = []
+    chosen, reports = resolve_discretization(series_sweep(speeds), series_solver(space, log=log))
+    bound = SERIES_SHARE * 1e-2 / SAFETY
+    assert {spr for *_, spr, _ in log} == {256}
+    assert {tail for *_, tail in log} == {bound}
+    own = {speed for speed, *_ in log}
+    assert set(speeds[representatives(len(speeds))]) <= own and len(own) < len(speeds)
+    ne = chosen[0]["discretization"]["elements_per_link"]
+    for scene, report in zip(chosen, reports):
+        assert scene["time"] == {**scene["time"], "periodic_solver": "spectral",
+                                 "collocation_points": "auto", "steps_per_revolution": 256,
+                                 "spectral_tail": bound}
+        assert report["time_error"] == "spectral_tail" and report["spectral_tail_bound"] == bound
+        true = space(ne, scene["drive"]["speed"])
+        assert true + bound <= report["predicted_error"] <= 1e-2 / SAFETY
+        assert report["tolerance_met"] and report["first_frequency"] is None
+        if report["ladder"] == "own":
+            assert report["time_ladder"] == []
+        else:  # the margin is on the interpolated part, not on the bound each case keeps
+            low, high = report["ladder_cases"]
+            assert report["predicted_error"] == pytest.approx(INTERPOLATION_MARGIN * max(
+                reports[low]["predicted_error"] - bound,
+                reports[high]["predicted_error"] - bound) + bound)
+
+
+def test_a_series_shot_at_its_first_rung_climbs_the_marched_ladders():
+    # The sweep's middle representative does not come out a series (its GMRES did not
+    # converge, or it is near a change point): it climbs the time ladder from the first rung,
+    # with its modal analysis, and the shared steps meet its marched time error.
+    speeds = np.linspace(90.0, 110.0, 17)
+    odd = speeds[8]
+    log = []
+    chosen, reports = resolve_discretization(
+        series_sweep(speeds), series_solver(lambda ne, speed: 0.3 / ne**3,
+                                            shot=lambda speed: speed == odd, log=log))
+    assert {spr for speed, _, spr, _ in log if speed != odd} == {256}
+    assert min(spr for speed, _, spr, _ in log if speed == odd) == FIRST_STEPS
+    assert "time_error" not in reports[8] and len(reports[8]["time_ladder"]) >= 3
+    spr = chosen[0]["time"]["steps_per_revolution"]
+    ne = chosen[0]["discretization"]["elements_per_link"]
+    assert 0.3 / ne**3 + 20.0 / spr**2 <= reports[8]["predicted_error"] <= 1e-2 / SAFETY
+
+
+def test_a_periodic_sweep_as_series_meets_its_tolerance():
+    # The reference four-bar's steady state at three speeds, as Fourier series chosen for 1 %,
+    # against 32 elements of every DOF at 256 points: within the tolerance and the estimate,
+    # which is the prediction (the series' own tails are far below their bound).
+    speeds = [90.0, 100.0, 110.0]
+    raw = [reference_raw(discretization="auto", tolerance=1e-2, drive={"speed": v},
+                         time={"revolutions": 1, "steps_per_revolution": 128,
+                               "start": "periodic", "periodic_solver": "spectral"})
+           for v in speeds]
+    ds = simulate(raw)
+    reports = [json.loads(str(r)) for r in ds.discretization_auto.values]
+    converged = simulate([{**r, "discretization": {"elements_per_link": 32},
+                           "time": {**r["time"], "collocation_points": 256}} for r in raw])
+    true = np.abs(ds.peak_stress.max("link").values / converged.peak_stress.max("link").values
+                  - 1.0)
+    assert np.all(true <= 1e-2) and np.all(true <= ds.error_estimate.values)
+    assert np.all(ds.spectral_tail.values <= reports[0]["spectral_tail_bound"])
+    assert ds.error_estimate.values == pytest.approx([r["predicted_error"] for r in reports])
+    assert all(r["time_error"] == "spectral_tail" for r in reports)

@@ -8,7 +8,7 @@ import yaml
 from ced.auto.error_estimate import (MIN_COARSENING, SAFETY, SAFETY_PERIODIC,
                                      algorithmic_damping, coarser_steps,
                                      combine, companions)
-from ced.problem.scene import load_scene
+from ced.problem.scene import SPECTRAL_TAIL, load_scene
 from ced.simulation.simulate import simulate
 
 
@@ -29,6 +29,17 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
     # Growth 4 (the smaller): Richardson's error is |Δ|/3, the estimate SAFETY_PERIODIC times
     # that (a periodic start).
     assert companion.factor == pytest.approx(SAFETY_PERIODIC / 3.0)
+
+
+def test_a_shot_spectral_case_has_shot_companions_with_no_series_keys():
+    # A spectral scene whose case was shot (no collocation points): its companion is shot and
+    # carries no key of the series (a tail bound set by discretization: auto included).
+    scene = load_scene(_scene(8, 256, periodic_solver="spectral", spectral_tail=1e-4))
+    (companion,) = companions(scene, omega1_h=0.2)
+    assert companion.scene["time"]["periodic_solver"] == "shooting"
+    assert load_scene(companion.scene)["time"]["spectral_tail"] == SPECTRAL_TAIL
+    (series,) = companions(scene, omega1_h=0.2, collocation_points=64)
+    assert series.scene["time"]["spectral_tail"] == 1e-4
 
 
 @pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.85), (256, 1.5)])

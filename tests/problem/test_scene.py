@@ -50,7 +50,8 @@ def test_minimal_four_bar_gets_documented_defaults():
     assert s["time"] == {"revolutions": 2.0, "steps_per_revolution": 512,
                          "integrator": "generalized_alpha", "rho_inf": 0.9, "beta": 0.25,
                          "gamma": 0.5, "alpha": -0.05, "start": "undeformed",
-                         "periodic_solver": "shooting", "collocation_points": "auto"}
+                         "periodic_solver": "shooting", "collocation_points": "auto",
+                         "spectral_tail": 5e-3}
     assert s["modal"] is None
     assert s["outputs"] == {"stations": 11, "every": 1, "error_estimate": True}
     assert s["tolerance"] == 1e-3

@@ -183,11 +183,42 @@ def test_spectral_needs_a_periodic_start(time, message):
     assert message in str(info.value)
 
 
-def test_spectral_refuses_auto_discretization():
+def test_auto_discretization_keeps_the_collocation_points_adaptive():
+    # discretization: auto bounds the series' time error by its tail: fixed points cannot.
     scene = copy.deepcopy(BLIND_SPOT)
     scene["discretization"] = "auto"
-    with pytest.raises(SceneError, match="time.periodic_solver.*discretization: auto"):
+    load_scene(scene)
+    scene["time"]["collocation_points"] = 64
+    with pytest.raises(SceneError, match="time.collocation_points.*collocation_points: auto"):
         load_scene(scene)
+
+
+def test_spectral_tail_belongs_to_the_spectral_solver():
+    scene = copy.deepcopy(BLIND_SPOT)
+    scene["time"] = {**scene["time"], "periodic_solver": "shooting", "spectral_tail": 1e-3}
+    with pytest.raises(SceneError, match="time.spectral_tail.*periodic_solver: shooting"):
+        load_scene(scene)
+    scene["time"] = {**scene["time"], "periodic_solver": "spectral", "spectral_tail": 0.0}
+    with pytest.raises(SceneError, match="time.spectral_tail: must be a finite number > 0"):
+        load_scene(scene)
+
+
+def test_a_tighter_spectral_tail_doubles_the_points_until_it_holds():
+    # The blind spot's series stops at 32 points by the default 0.5 % (its tail 0.1 %); asked
+    # for 1e-3 and 1e-6 it doubles until its tail is below them, and its peak moves by less
+    # than the tail it had.
+    points, tails, peaks = [], [], []
+    for tail in (TAIL_TOLERANCE, 1e-3, 1e-6):
+        scene = copy.deepcopy(BLIND_SPOT)
+        scene["time"]["spectral_tail"] = tail
+        ds = simulate(scene)
+        assert ds.spectral_tail.values[0] <= tail and ds.status.values[0] == 0
+        points.append(int(ds.collocation_points.values[0]))
+        tails.append(float(ds.spectral_tail.values[0]))
+        peaks.append(_peak(ds))
+    assert points == [32, 64, 128]
+    assert abs(peaks[0] / peaks[-1] - 1.0) <= tails[0]
+    assert abs(peaks[1] / peaks[-1] - 1.0) <= tails[1]
 
 
 def test_fixed_points_take_no_ladder_and_peaks_only_needs_the_terms_at_them_alone(monkeypatch):

@@ -117,3 +117,16 @@ def test_cases_of_interleaved_structures_come_back_in_the_callers_order():
         assert float(together.speed[i]) == scene["drive"]["speed"]
         np.testing.assert_array_equal(together.stress.isel(case=i).values,
                                       alone.stress.isel(case=0).values)
+
+
+def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
+    # discretization: auto's prediction is a case's estimate; a case predicted as a series
+    # adds what its own tail exceeds the bound it was refined to, and one that was shot in the
+    # end is left to the error estimate's companions.
+    from ced.simulation.simulate import _auto_estimates
+    series = {"predicted_error": 4e-3, "time_error": "spectral_tail",
+              "spectral_tail_bound": 1e-3}
+    reports = [{}, {"predicted_error": 5e-3}, series, series, series]
+    tail = np.array([np.nan, np.nan, 2e-7, 3e-3, np.nan])
+    assert _auto_estimates(reports, tail) == {1: 5e-3, 2: 4e-3, 3: pytest.approx(6e-3)}
+    assert _auto_estimates(reports, None) == {1: 5e-3}
