@@ -1,6 +1,6 @@
 """What ``discretization: auto``'s pilots cost on the benchmark's sweep, with and without sharing.
 
-Run ``python benchmarks/auto_pilots.py`` (about six minutes on 2 cores); results go to
+Run ``python benchmarks/auto_pilots.py`` (about four minutes on an idle machine); results go to
 ``benchmarks/auto_pilots.json`` and are printed. One process, one BLAS thread.
 
 The sweep of ``benchmarks/run.py`` (reference flexible four-bar, 100 speeds 90–110 rad/s, two

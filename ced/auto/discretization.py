@@ -98,8 +98,8 @@ not guessed:
    and one whose own tail ends above the bound (a resonant series left unresolved) adds the
    excess to it (:mod:`ced.simulation.simulate`). On the benchmark's sweep from a periodic
    start (100 speeds, ``tolerance: 1e-2``, ``benchmarks/auto_pilots.json``) this chose 15
-   elements and 4 modes in 0.4 s where the shooting ladders chose 31 elements, 4 modes and
-   3592 steps per revolution in 10–15 s; true error at most 0.10 % at every speed, against 32
+   elements and 4 modes in 0.40–0.43 s where the shooting ladders chose 31 elements, 4 modes
+   and 3592 steps per revolution in 2.9–5.8 s (the same run); true error at most 0.10 % at every speed, against 32
    elements of every FE DOF at 256 points, each within its estimate.
 
 One discretization serves all ``auto`` scenes of a call, the cheapest at which every climber
