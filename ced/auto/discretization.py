@@ -91,8 +91,12 @@ not guessed:
    instants): the first rung, the space ladder and the truncation; none of them needs the
    modal analysis, and a case that does not climb solves no pilot (its first mode decides
    nothing here). Between climbers :data:`INTERPOLATION_MARGIN` multiplies the measured part
-   only: each case keeps its own tail bound. A case whose pilot is shot instead (near a change
-   point, or GMRES did not converge) climbs the marched ladders like any other, and so does
+   only: each case keeps its own tail bound. A full mesh slows a series' GMRES (its stiff
+   interior modes), so its truncation pilot is solved at :data:`SERIES_FULL_POINTS` fixed
+   points, where GMRES may iterate longer, and with a series in the call the full mesh is
+   chosen only where no reduced model exists (4 elements or fewer). A case with a pilot shot
+   instead (near a change point, or GMRES did not converge: a shot pilot carries the output
+   steps' time error, unmeasured) climbs the marched ladders like any other, and so does
    every such case of its sweep that was solved; one predicted as a series but shot in its
    own solve gets the companions of :mod:`ced.auto.error_estimate` instead of the prediction,
    and one whose own tail ends above the bound (a resonant series left unresolved) adds the
@@ -129,7 +133,8 @@ from .error_estimate import TIME_ORDER
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
            "MODE_CHOICES", "choose_shared",
            "choose", "cost", "sweeps", "representatives", "bracket", "unverified", "MODES",
-           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN", "SERIES_SHARE"]
+           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN", "SERIES_SHARE",
+           "SERIES_FULL_POINTS"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
@@ -190,6 +195,12 @@ COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.01
 #: at most a doubling of them more than the default 0.5 % does, and leaves the mesh and the
 #: model nine tenths of the budget.
 SERIES_SHARE = 0.1
+#: Fixed collocation points of a series' full-mesh truncation pilot. A full mesh's stiff
+#: interior modes slow the series' GMRES (the rocker-crank reference at 8 elements: 157
+#: iterations at 32 points, where the adaptive ladder's first level allows 100 and then
+#: shoots; 4 and 8 modes: 28); at fixed points above the first level it may iterate as long as
+#: a ladder's higher levels do (190 there).
+SERIES_FULL_POINTS = 64
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
 
@@ -440,10 +451,17 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
                                for x, t, _ in ladders]) + floors[:, None, None]
     bar = np.broadcast_to(np.asarray(tolerance, float), (len(ladders),)) / SAFETY
     best = (np.inf, None)
+    # A series' GMRES converges far more slowly on a full mesh than on a reduced one (its
+    # stiff interior modes: the rocker-crank reference at 5 elements did not converge in the
+    # 100 iterations at 32 points where 4 modes took 28), and a series that does not converge
+    # is shot at the output steps, whose time error no ladder measured: with a series in the
+    # call the full mesh is chosen only where no reduced model exists.
+    full = _full_measured(elements) & ~(
+        floors.any() & _reduced_allowed(elements, min(MODE_CHOICES)))
     for modes in (0,) + tuple(MODE_CHOICES):
         model_cost = (_reduced_cost(elements[:, None], steps[None, :], revolutions,
                                     flexible_links, modes) if modes else
-                      np.where(_full_measured(elements)[:, None],
+                      np.where(full[:, None],
                                _full_cost(elements[:, None], steps[None, :], revolutions,
                                           flexible_links), np.inf))
         cut = np.array([cut[modes] if modes else 0.0 for _, _, cut in ladders])
@@ -460,28 +478,39 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
     steps = int(max(t[0][-1] for _, t, _ in ladders))
     finest = np.array([predicted_error(x, t, elements, steps) for x, t, _ in ladders]) + floors
     modes = min(MODE_CHOICES, key=lambda m: max(cut[m] for _, _, cut in ladders))
-    if _full_measured(elements) and bool(cost(elements, steps, revolutions, flexible_links,
-                                              modes)[1]):
+    full = _full_measured(elements) and not (
+        floors.any() and _reduced_allowed(elements, min(MODE_CHOICES)))
+    if full and bool(cost(elements, steps, revolutions, flexible_links, modes)[1]):
         return elements, steps, 0, float(finest.max())
     cut = np.array([cut[modes] for _, _, cut in ladders])
     return elements, steps, modes, float((finest + cut).max())
 
 
+def _tails(solved: dict, n: int) -> np.ndarray:
+    """The pilots' spectral tails (NaN where the periodic state was not a series, or for a
+    solver that reports none)."""
+    return np.asarray(solved.get("tail", np.full(n, np.nan)), float)
+
+
 def _ladder(scenes: list[dict], solve: Callable, rungs: Callable[[int], tuple[list, list]],
             done: Callable[[int, list[float]], bool], limit: int,
-            known: list[dict[int, float]]) -> list[list[float]]:
+            known: list[dict[int, float]], shot: list[bool] | None = None
+            ) -> list[list[float]]:
     """Peaks of each scene's ladder. Rung r of scene j is (elements[j], steps[j]) =
     ``rungs(r)``, solved batched over the scenes still climbing until ``done(j, peaks)`` or
-    ``limit`` rungs; ``known[j]`` holds rungs already solved (rung → peak)."""
+    ``limit`` rungs; ``known[j]`` holds rungs already solved (rung → peak); ``shot[j]`` is
+    set where a pilot's periodic state was not a Fourier series."""
     peaks: list[list[float]] = [[] for _ in scenes]
     climbing = list(range(len(scenes)))
     for rung in range(limit):
         elements, steps = rungs(rung)
         todo = [j for j in climbing if rung not in known[j]]
         if todo:
-            solved = solve([_pilot(scenes[j], elements[j], steps[j]) for j in todo])["peak"]
-            for j, peak in zip(todo, solved):
+            solved = solve([_pilot(scenes[j], elements[j], steps[j]) for j in todo])
+            for j, peak, tail in zip(todo, solved["peak"], _tails(solved, len(todo))):
                 known[j][rung] = float(peak)
+                if shot is not None and not np.isfinite(tail):
+                    shot[j] = True
         for j in climbing:
             peaks[j].append(known[j][rung])
         climbing = [j for j in climbing if not done(j, peaks[j])]
@@ -501,6 +530,9 @@ class _Climbed(NamedTuple):
     space_steps: int
     truncation: dict[int, float]
     time_floor: float = 0.0
+    #: A pilot of this series case was shot instead (GMRES did not converge): its peak has
+    #: the output steps' time error, which no ladder measured; the case climbs marched.
+    lost_series: bool = False
 
 
 def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
@@ -552,33 +584,51 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
     def space_done(j: int, peaks: list[float]) -> bool:
         return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
 
+    shot = [False] * len(work)
     space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
-                          space_done, len(rungs_x), known)
+                          space_done, len(rungs_x), known, shot)
     truncation = _truncation(work, solve, [int(levels[-1]) for levels in time_levels],
-                             [peaks[-1] for peaks in time_peaks])
+                             [peaks[-1] for peaks in time_peaks], series, shot)
     return [_Climbed((np.array(rungs_x[:len(sp)], float), ladder_errors(sp, order=2.0)),
                      (levels, errors), steps, cut,
-                     _series_bound(scene) if in_series else 0.0)
-            for sp, levels, errors, steps, cut, scene, in_series in zip(
-                space_peaks, time_levels, time_errors, space_steps, truncation, work, series)]
+                     _series_bound(scene) if in_series else 0.0, bool(in_series and lost))
+            for sp, levels, errors, steps, cut, scene, in_series, lost in zip(
+                space_peaks, time_levels, time_errors, space_steps, truncation, work, series,
+                shot)]
 
 
 def _truncation(work: list[dict], solve: Callable, steps: list[int],
-                ladder_peaks: list[float]) -> list[dict[int, float]]:
+                ladder_peaks: list[float], series: np.ndarray | None = None,
+                shot: list[bool] | None = None) -> list[dict[int, float]]:
     """Per scene the relative error on peak stress of a reduced model with each of
     :data:`MODE_CHOICES` modes per link against the full mesh, both at
     :data:`LADDER_ELEMENTS` elements and its ``steps`` per revolution, the finest rung of its
     time ladder, whose peak (of the :data:`MODES` model) is ``ladder_peaks`` (module
-    docstring, stage 3)."""
+    docstring, stage 3). A series' full mesh is solved at :data:`SERIES_FULL_POINTS` fixed
+    points, and its tail (its time error) added to the truncation; ``shot[j]`` is set where
+    a series' pilot was shot instead."""
+    series = np.zeros(len(work), bool) if series is None else np.asarray(series, bool)
     modes = [0] + [m for m in MODE_CHOICES if m != MODES]
-    solved = solve([_pilot(scene, LADDER_ELEMENTS, s, m) for m in modes
-                    for scene, s in zip(work, steps)])
+    pilots = []
+    for m in modes:
+        for scene, s, in_series in zip(work, steps, series):
+            pilot = _pilot(scene, LADDER_ELEMENTS, s, m)
+            if in_series and not m:
+                pilot["time"] = {**pilot["time"], "collocation_points": SERIES_FULL_POINTS}
+            pilots.append(pilot)
+    solved = solve(pilots)
     peaks = dict(zip(modes, np.asarray(solved["peak"], float).reshape(len(modes), len(work))))
+    tails = _tails(solved, len(pilots)).reshape(len(modes), len(work))
+    if shot is not None:
+        for j in np.flatnonzero(series & ~np.isfinite(tails).all(axis=0)):
+            shot[j] = True
     peaks[MODES] = np.asarray(ladder_peaks, float)
     full = peaks[0]
+    own_time = np.where(series, np.nan_to_num(tails[0], nan=0.0), 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         errors = {m: np.where(full == 0.0, np.where(peaks[m] == 0.0, 0.0, np.inf),
-                              np.abs(peaks[m] - full) / np.abs(full)) for m in MODE_CHOICES}
+                              np.abs(peaks[m] - full) / np.abs(full) + own_time)
+                  for m in MODE_CHOICES}
     # A failed pilot (NaN) leaves an infinite truncation: that model is never chosen.
     return [{m: float(np.nan_to_num(errors[m][j], nan=np.inf)) for m in MODE_CHOICES}
             for j in range(len(work))]
@@ -809,7 +859,7 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
         series' peak does not depend on them), without one; where it falls back to shooting
         (near a change point, or GMRES did not converge) it climbs the marched ladders from
         their first rung like any other case."""
-        todo = [j for j in cases if first_peaks[j] is None and spectral[j]]
+        todo = [j for j in cases if first_peaks[j] is None and series[j]]
         if todo:
             solved = solve([_pilot(work[j], LADDER_ELEMENTS,
                                    work[j]["time"]["steps_per_revolution"]) for j in todo])
@@ -850,17 +900,25 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
             c.update(g[~series[g]].tolist())
     ladders: dict[int, _Climbed] = {}
     choices: dict[int, tuple] = {}
-    while True:
-        new = sorted(j for c in climbed for j in c if j not in ladders)
-        first_rungs(new)
-        floor = np.where(series, bound, 0.0)
-        for j, ladder in zip(new, _climb([work[j] for j in new], solve,
-                                         [first_peaks[j] for j in new], resolved_at[new],
-                                         [budget[j] for j in new], series[new])):
+    def climb(cases: list[int]) -> None:
+        first_rungs(cases)
+        for j, ladder in zip(cases, _climb([work[j] for j in cases], solve,
+                                           [first_peaks[j] for j in cases], resolved_at[cases],
+                                           [budget[j] for j in cases], series[cases])):
             ladders[j] = ladder
             choices[j] = choose_shared(
                 [(ladder.space, ladder.time, ladder.truncation, ladder.time_floor)],
                 work[j]["tolerance"], work[j]["time"]["revolutions"], _flexible_links(work[j]))
+        lost = [j for j in cases if ladders[j].lost_series]
+        if lost:  # stage 6: a series whose pilot was shot climbs the marched ladders instead
+            series[lost] = False
+            for j in lost:
+                first_peaks[j] = None
+            climb(lost)
+
+    while True:
+        climb(sorted(j for c in climbed for j in c if j not in ladders))
+        floor = np.where(series, bound, 0.0)
         # One discretization for the call, the cheapest at which every climber meets its
         # tolerance: the cases then share one time grid (a dataset has one step dimension)
         # and batch together.
