@@ -123,10 +123,17 @@ def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
     # discretization: auto's prediction is a case's estimate; a case predicted as a series
     # adds what its own tail exceeds the bound it was refined to, and one that was shot in the
     # end is left to the error estimate's companions.
+    # A case bounded by its neighbours but flagged resonant or unstable gets companions too.
     from ced.simulation.simulate import _auto_estimates
     series = {"predicted_error": 4e-3, "time_error": "spectral_tail",
-              "spectral_tail_bound": 1e-3}
-    reports = [{}, {"predicted_error": 5e-3}, series, series, series]
-    tail = np.array([np.nan, np.nan, 2e-7, 3e-3, np.nan])
-    assert _auto_estimates(reports, tail) == {1: 5e-3, 2: 4e-3, 3: pytest.approx(6e-3)}
-    assert _auto_estimates(reports, None) == {1: 5e-3}
+              "spectral_tail_bound": 1e-3, "ladder": "own"}
+    reports = [{}, {"predicted_error": 5e-3, "ladder": "interpolated"}, series, series, series,
+               {**series, "ladder": "interpolated"}, {"predicted_error": 5e-3, "ladder": "own"}]
+    tail = np.array([np.nan, np.nan, 2e-7, 3e-3, np.nan, 2e-7, np.nan])
+    quiet = np.zeros(len(reports), np.int64)
+    assert _auto_estimates(reports, tail, quiet) == {1: 5e-3, 2: 4e-3, 3: pytest.approx(6e-3),
+                                                     5: 4e-3, 6: 5e-3}
+    assert _auto_estimates(reports, None, quiet) == {1: 5e-3, 6: 5e-3}
+    flagged = quiet + np.array([0, 4, 4, 0, 0, 8, 4])
+    assert _auto_estimates(reports, tail, flagged) == {2: 4e-3, 3: pytest.approx(6e-3),
+                                                       6: 5e-3}
