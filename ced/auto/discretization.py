@@ -130,7 +130,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..problem.scene import dump_scene
+from ..problem.scene import SPECTRAL_TAIL, dump_scene
 from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
@@ -616,8 +616,9 @@ def _truncation(work: list[dict], solve: Callable, steps: list[int],
     for m in modes:
         for scene, s, in_series in zip(work, steps, series):
             pilot = _pilot(scene, LADDER_ELEMENTS, s, m)
-            if in_series and not m:
-                pilot["time"] = {**pilot["time"], "collocation_points": SERIES_FULL_POINTS}
+            if in_series and not m:  # fixed points: no tail to stop at
+                pilot["time"] = {**pilot["time"], "collocation_points": SERIES_FULL_POINTS,
+                                 "spectral_tail": SPECTRAL_TAIL}
             pilots.append(pilot)
     solved = solve(pilots)
     peaks = dict(zip(modes, np.asarray(solved["peak"], float).reshape(len(modes), len(work))))

@@ -286,8 +286,9 @@ def companions(scene: dict, omega1_h: float = 0.0, collocation_points: int = 0
         # New blocks where it differs, the others shared (normalized scenes are never changed
         # in place): a deep copy per case was 0.1 s of a 500-case chunk.
         time = {**scene["time"], "steps_per_revolution": steps}
-        if collocation_points:  # the series at the case's own points
+        if collocation_points:  # the series at the case's own points (no tail to stop at)
             time["collocation_points"] = int(collocation_points)
+            time["spectral_tail"] = SPECTRAL_TAIL
         else:  # the case was shot: so are its companions
             time["periodic_solver"] = "shooting"
             time["collocation_points"] = "auto"

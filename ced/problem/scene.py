@@ -501,6 +501,12 @@ def _spectral_allowed(scene: dict) -> None:
                                                     "time error by its spectral tail, which "
                                                     "needs collocation_points: auto (got "
                                                     f"{scene['time']['collocation_points']})")
+    if scene["time"]["collocation_points"] != AUTO and \
+            scene["time"]["spectral_tail"] != SPECTRAL_TAIL:
+        raise SceneError("time.spectral_tail", "sets when adaptive collocation points double; "
+                                               "with collocation_points fixed (got "
+                                               f"{scene['time']['collocation_points']}) it has "
+                                               "no effect: drop one of them")
 
 
 def check_elastic_axial_force(scene: dict) -> None:

@@ -14,7 +14,7 @@ from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, INTERPOLATION_MARGI
                                      _sweep_key, bracket, choose, cost, interpolate,
                                      ladder_errors, predicted_error, representatives,
                                      resolve_discretization, sweeps, unverified)
-from ced.problem.scene import load_scene
+from ced.problem.scene import SPECTRAL_TAIL, load_scene
 from ced.simulation.simulate import simulate
 
 
@@ -581,7 +581,10 @@ def test_a_series_climbs_no_time_ladder_and_keeps_its_tail_within_its_share():
     chosen, reports = resolve_discretization(series_sweep(speeds), series_solver(space, log=log))
     bound = SERIES_SHARE * 1e-2 / SAFETY
     assert {spr for *_, spr, _ in log} == {256}
-    assert {tail for *_, tail in log} == {bound}
+    # Every series pilot stops at the bound but the full mesh's truncation pilot, at fixed
+    # points (SERIES_FULL_POINTS) where no tail is to stop at.
+    assert {tail for *_, tail in log} == {bound, SPECTRAL_TAIL}
+    assert {ne for _, ne, _, tail in log if tail == SPECTRAL_TAIL} == {8}
     own = {speed for speed, *_ in log}
     assert set(speeds[representatives(len(speeds))]) <= own and len(own) < len(speeds)
     ne = chosen[0]["discretization"]["elements_per_link"]

@@ -33,13 +33,14 @@ def test_one_companion_halves_the_steps_and_grows_the_space_error_alike():
 
 def test_a_shot_spectral_case_has_shot_companions_with_no_series_keys():
     # A spectral scene whose case was shot (no collocation points): its companion is shot and
-    # carries no key of the series (a tail bound set by discretization: auto included).
+    # carries no key of the series (a tail bound set by discretization: auto included); a
+    # series case's companion is solved at the case's fixed points, with no tail to stop at.
     scene = load_scene(_scene(8, 256, periodic_solver="spectral", spectral_tail=1e-4))
     (companion,) = companions(scene, omega1_h=0.2)
     assert companion.scene["time"]["periodic_solver"] == "shooting"
     assert load_scene(companion.scene)["time"]["spectral_tail"] == SPECTRAL_TAIL
     (series,) = companions(scene, omega1_h=0.2, collocation_points=64)
-    assert series.scene["time"]["spectral_tail"] == 1e-4
+    assert load_scene(series.scene)["time"]["collocation_points"] == 64
 
 
 @pytest.mark.parametrize("steps, omega1_h", [(64, 0.2), (256, 0.85), (256, 1.5)])

@@ -201,6 +201,9 @@ def test_spectral_tail_belongs_to_the_spectral_solver():
     scene["time"] = {**scene["time"], "periodic_solver": "spectral", "spectral_tail": 0.0}
     with pytest.raises(SceneError, match="time.spectral_tail: must be a finite number > 0"):
         load_scene(scene)
+    scene["time"] = {**scene["time"], "spectral_tail": 1e-3, "collocation_points": 64}
+    with pytest.raises(SceneError, match="time.spectral_tail.*collocation_points fixed"):
+        load_scene(scene)
 
 
 def test_a_tighter_spectral_tail_doubles_the_points_until_it_holds():
