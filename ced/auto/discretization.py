@@ -904,7 +904,9 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
             c.update(g[~series[g]].tolist())
     ladders: dict[int, _Climbed] = {}
     choices: dict[int, tuple] = {}
+
     def climb(cases: list[int]) -> None:
+        """Stages 1–3 for these cases (their own choices too), batched."""
         first_rungs(cases)
         for j, ladder in zip(cases, _climb([work[j] for j in cases], solve,
                                            [first_peaks[j] for j in cases], resolved_at[cases],

@@ -294,8 +294,8 @@ MEANINGS: dict[str, str] = {
                             "the steps set the output instants and the Floquet analysis)",
     "time.collocation_points": "Fourier collocation points per input period with "
                                "periodic_solver: spectral: auto (from 32, doubled up to 256 "
-                               "while the spectral tail exceeds 0.5 % of the peak stress) or a "
-                               "fixed even number",
+                               "while the spectral tail exceeds time.spectral_tail) or a fixed "
+                               "even number",
     "time.spectral_tail": "with periodic_solver: spectral and collocation_points: auto, the "
                           "spectral tail above which the collocation points double (the series' "
                           "time error; discretization: auto sets it from the tolerance)",

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fem.recovery import peaks
-from ..problem.scene import SPECTRAL_TAIL
 from ..fem.recovery_kernel import recover
+from ..problem.scene import SPECTRAL_TAIL
 from .batch import make_batch
 from .kernels import expand
 from .model import Model
