@@ -200,9 +200,9 @@ COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.01
 SERIES_SHARE = 0.1
 #: Fixed collocation points of a series' full-mesh truncation pilot. A full mesh's stiff
 #: interior modes slow the series' GMRES (the rocker-crank reference at 8 elements: 157
-#: iterations at 32 points, where the adaptive ladder's first level allows 100 and then
-#: shoots; 4 and 8 modes: 28); at fixed points above the first level it may iterate as long as
-#: a ladder's higher levels do (190 there).
+#: iterations at 32 points, where 4 and 8 modes take 28, and the adaptive ladder's first level
+#: shoots a case past :data:`ced.response.collocation.MAX_ITERATIONS`); at fixed points above
+#: the first level it may iterate as long as a ladder's higher levels do (190 there).
 SERIES_FULL_POINTS = 64
 _ELEMENTS = np.unique(np.round(np.geomspace(2, 256, 40)).astype(int))
 
@@ -455,8 +455,8 @@ def choose_shared(ladders: list[tuple], tolerance, revolutions: float,
     bar = np.broadcast_to(np.asarray(tolerance, float), (len(ladders),)) / SAFETY
     best = (np.inf, None)
     # A series' GMRES converges far more slowly on a full mesh than on a reduced one (its
-    # stiff interior modes: the rocker-crank reference at 5 elements did not converge in the
-    # 100 iterations at 32 points where 4 modes took 28), and a series that does not converge
+    # stiff interior modes: the rocker-crank reference at 5 elements needed over 100
+    # iterations at 32 points where 4 modes took 28), and a series that does not converge
     # is shot at the output steps, whose time error no ladder measured: with a series in the
     # call the full mesh is chosen only where no reduced model exists.
     full = _full_measured(elements) & ~(

@@ -62,8 +62,13 @@ MAX_POINTS = 256
 #: time-averaged preconditioner needs 12–35 on the default study's four-bars and slider-cranks
 #: at P = 32–64; double cranks whose stiffness swings over the cycle need hundreds, and
 #: a case that has not converged by then is better shot than iterated (500 iterations cost
-#: 75 ms at P = 128, five times its shooting).
-MAX_ITERATIONS = 100
+#: 75 ms at P = 128, five times its shooting). At the first level (P = 32) an iteration is a
+#: quarter of that, and 200 let 23 more of a 500-case double-crank chunk's cases converge
+#: (455 → 478; 100–200 iterations each, where their shooting cost ~20 ms): the chunk took
+#: 6.7 s against 6.9–7.0, its estimate's companions (shot too, before) 29 % of the solve
+#: against 37–38 %; 300 converged 6 more and saved nothing. A full mesh needs more than 100
+#: too (the convergence study's rocker-crank at 8 elements: 157).
+MAX_ITERATIONS = 200
 #: GMRES iterations allowed per solve above the first level: a case that climbs the ladder is
 #: near a resonance of a high harmonic, where the time-averaged preconditioner is weaker (a
 #: default-study crank-rocker at 50 rad/s needed 331 at P = 128 and 173 at P = 256), and
