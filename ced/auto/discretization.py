@@ -104,8 +104,8 @@ not guessed:
    and one whose own tail ends above the bound (a resonant series left unresolved) adds the
    excess to it (:mod:`ced.simulation.simulate`). On the benchmark's sweep from a periodic
    start (100 speeds, ``tolerance: 1e-2``, ``benchmarks/auto_pilots.json``) this chose 15
-   elements and 4 modes in 0.43–0.44 s where the shooting ladders chose 31 elements, 4 modes
-   and 3592 steps per revolution in 3.9–5.1 s (the same run); true error at most 0.10 % at
+   elements and 4 modes in 0.44–0.51 s where the shooting ladders chose 31 elements, 4 modes
+   and 3592 steps per revolution in 2.9–4.9 s (the same run); true error at most 0.10 % at
    every speed against 32 elements of every FE DOF at 256 points, 98 of the 100 within their
    estimates (the other two 1.5e-5 and 3.5e-6 off).
 
