@@ -7,7 +7,9 @@ against an independent reference of the same model: 32 elements, 8 modes per lin
 4096 steps per revolution (a marched solve, not a series). Per case: the setting chosen,
 whether it was taken as a series (``time_error: spectral_tail``; a change point falls back to
 the marched ladders), its predicted error (its ``error_estimate``), the true error on peak
-stress, and the time of the call. Results go to ``benchmarks/auto_series_check.json``;
+stress (None where the reference's motion is ``near_singular``: the change point's converged
+value is uncertain by about 9 %, the convergence study's accuracy table), and the time of
+the call. Results go to ``benchmarks/auto_series_check.json``;
 docs/accuracy.md quotes them.
 
 Run ``.venv/bin/python benchmarks/auto_series_check.py`` (about a minute).
@@ -22,6 +24,7 @@ from pathlib import Path
 import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
 
 from ced import simulate  # noqa: E402
+from ced.problem.status import STATUS_FLAGS  # noqa: E402
 from ced.problem.yaml_files import load_yaml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -51,6 +54,7 @@ def main() -> None:
             "time": {"steps_per_revolution": REFERENCE["steps_per_revolution"]},
             "outputs": {"error_estimate": False}}))
         peak = float(reference.peak_stress.max())
+        verifiable = not int(reference.status.values[0]) & STATUS_FLAGS["near_singular"]
         for tolerance in TOLERANCES:
             auto = _merge(scene, {"tolerance": tolerance,
                                   "time": {"periodic_solver": "spectral"}})
@@ -65,14 +69,17 @@ def main() -> None:
                    "series": report.get("time_error") == "spectral_tail",
                    "predicted_error": report["predicted_error"],
                    "error_estimate": float(ds.error_estimate.values[0]),
-                   "true_error": abs(float(ds.peak_stress.max()) / peak - 1.0),
+                   "true_error": (abs(float(ds.peak_stress.max()) / peak - 1.0)
+                                  if verifiable else None),
                    "tolerance_met": report["tolerance_met"],
                    "status": int(ds.status.values[0]), "seconds": round(seconds, 3)}
-            row["estimate_bounds_true"] = row["true_error"] <= row["error_estimate"]
+            row["estimate_bounds_true"] = (None if row["true_error"] is None
+                                           else row["true_error"] <= row["error_estimate"])
             rows.append(row)
+            true = "not verifiable" if row["true_error"] is None else f"{row['true_error']:.2e}"
             print(f"{family:14s} {tolerance:g}: {row['setting']} series {row['series']} "
-                  f"true {row['true_error']:.2e} estimate {row['error_estimate']:.2e} "
-                  f"{seconds:.2f} s", flush=True)
+                  f"true {true} estimate {row['error_estimate']:.2e} {seconds:.2f} s",
+                  flush=True)
     series = [r for r in rows if r["series"]]
     summary = {"cases": len(rows), "series": len(series),
                "series_within_tolerance": sum(r["true_error"] <= r["tolerance"]
