@@ -47,6 +47,7 @@ reference: $(STAMP)
 
 bench: $(STAMP) bench-memory
 	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/steady_state.py
 	$(BIN)/python benchmarks/estimate_check.py --cores $(CORES)
 	$(BIN)/python benchmarks/six_bar_cost.py
 	$(BIN)/python benchmarks/peer/linkages.py

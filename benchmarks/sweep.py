@@ -83,16 +83,22 @@ def peaks(setting: tuple[int, int, int], speeds=SPEEDS, repeat: int = 1,
                       for (*_, t), i in zip(parts, range(0, len(speeds), chunk)))
         return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
                 seconds / len(speeds))
-    scenes = [scene(s, *setting) for s in speeds]
+    out, seconds = timed_batch([scene(s, *setting) for s in speeds], repeat)
+    strain = np.abs(out["bending_strain"][:, :, 1]).max(axis=(1, 2)).astype(float)
+    return strain, np.nanmax(out["peak_stress"], axis=1), seconds
+
+
+def timed_batch(scenes: list[dict], repeat: int = 1) -> tuple[dict, float]:
+    """The outputs of one batch of ``scenes`` and its best wall time per case (s) over
+    ``repeat`` solves, each building its model afresh as a call of simulate does."""
     best, out = np.inf, None
     for _ in range(repeat):
         batch = make_batch(scenes)
-        model_cache.clear()  # each solve builds its model, as a call of simulate does
+        model_cache.clear()
         t0 = time.perf_counter()
         out = solve_batch(batch)
         best = min(best, time.perf_counter() - t0)
-    strain = np.abs(out["bending_strain"][:, :, 1]).max(axis=(1, 2)).astype(float)
-    return strain, np.nanmax(out["peak_stress"], axis=1), best / len(speeds)
+    return out, best / len(scenes)
 
 
 def cheapest(reference: np.ndarray, uncertainty: float = 0.0, repeat: int = 3,

@@ -88,27 +88,31 @@ _USE_CACHE = True
 
 
 def peer_sweep(speeds, elements: int, steps: int, drive: str = "velocity",
-               cached: bool = True) -> dict:
+               cached: bool = True, revolutions: int = 2, damping_beta: float = 0.0) -> dict:
     """Run the Exudyn model at ``speeds`` with one setting, in the peer venv.
 
     Returns the peer's JSON: ``cases`` is a list of {speed, peak_strain, solver_seconds, ...}
-    in the order of ``speeds``. A sweep already run (same setting, speeds and peer script) is
-    read from ``benchmarks/.peer-cache`` unless ``cached`` is False or ``--fresh`` was given.
+    in the order of ``speeds`` (with more than two ``revolutions``, also each revolution's
+    peak). ``damping_beta`` (s): stiffness-proportional damping of the coupler. A sweep already
+    run (same setting, speeds and peer script) is read from ``benchmarks/.peer-cache`` unless
+    ``cached`` is False or ``--fresh`` was given.
     """
     import hashlib  # noqa: PLC0415
 
     key = hashlib.sha256(json.dumps([PEER_SCRIPT.read_text(), elements, steps, drive,
-                                     [float(x) for x in speeds]]).encode()).hexdigest()[:16]
+                                     [float(x) for x in speeds], revolutions,
+                                     damping_beta]).encode()).hexdigest()[:16]
     path = CACHE / f"{elements}x{steps}-{drive}-{len(speeds)}-{key}.json"
     if cached and _USE_CACHE and path.exists():
         return json.loads(path.read_text())
-    run = _peer_sweep(speeds, elements, steps, drive)
+    run = _peer_sweep(speeds, elements, steps, drive, revolutions, damping_beta)
     CACHE.mkdir(exist_ok=True)
     path.write_text(json.dumps(run))
     return run
 
 
-def _peer_sweep(speeds, elements: int, steps: int, drive: str) -> dict:
+def _peer_sweep(speeds, elements: int, steps: int, drive: str, revolutions: int = 2,
+                damping_beta: float = 0.0) -> dict:
     if not PEER_PYTHON.exists():
         raise PeerError(f"no peer venv at {PEER_VENV}; run benchmarks/peer/setup_peer.sh")
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
@@ -118,7 +122,8 @@ def _peer_sweep(speeds, elements: int, steps: int, drive: str) -> dict:
     try:
         proc = subprocess.run(
             [str(PEER_PYTHON), str(PEER_SCRIPT), "--elements", str(elements), "--steps",
-             str(steps), "--drive", drive, "--speeds-json", path],
+             str(steps), "--drive", drive, "--speeds-json", path, "--revolutions",
+             str(revolutions), "--damping-beta", repr(float(damping_beta))],
             capture_output=True, text=True, env=env)
     finally:
         os.unlink(path)

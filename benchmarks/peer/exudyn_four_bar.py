@@ -110,8 +110,13 @@ def rigid_state(omega: float, theta2: float = 0.0) -> dict:
             "B": B, "C": C, "D": D, "vB": vB, "vC": vC}
 
 
-def build(omega: float, elements: int, steps: int, drive: str = "velocity"):
-    """Build the Exudyn model; returns (SC, mbs, simulationSettings, sensors, info)."""
+def build(omega: float, elements: int, steps: int, drive: str = "velocity",
+          revolutions: int = REVOLUTIONS, damping_beta: float = 0.0):
+    """Build the Exudyn model; returns (SC, mbs, simulationSettings, sensors, info).
+
+    ``damping_beta`` (s) is stiffness-proportional damping of the coupler, the same as ced's
+    ``damping: {model: rayleigh, beta: …}``: bending moment EI(κ + β κ̇), axial force
+    EA(ε + β ε̇) (the cable's bending and axial damping, EI β and EA β)."""
     st = rigid_state(omega)
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -191,7 +196,8 @@ def build(omega: float, elements: int, steps: int, drive: str = "velocity"):
     for k in range(elements):
         cables.append(mbs.AddObject(ii.ObjectANCFCable2D(
             nodeNumbers=[nodes[k], nodes[k + 1]], length=le, massPerLength=RHO * AREA,
-            bendingStiffness=E * INERTIA, axialStiffness=E * AREA)))
+            bendingStiffness=E * INERTIA, axialStiffness=E * AREA,
+            bendingDamping=E * INERTIA * damping_beta, axialDamping=E * AREA * damping_beta)))
     mCouplerB = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=nodes[0]))
     mCouplerC = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=nodes[-1]))
     mbs.AddObject(ii.ObjectJointRevolute2D(markerNumbers=[mCrankB, mCouplerB]))
@@ -209,8 +215,8 @@ def build(omega: float, elements: int, steps: int, drive: str = "velocity"):
     mbs.Assemble()
 
     h = 2.0 * math.pi / (omega * steps)
-    t_end = REVOLUTIONS * 2.0 * math.pi / omega
-    sim = simulation_settings(REVOLUTIONS * steps, t_end)
+    t_end = revolutions * 2.0 * math.pi / omega
+    sim = simulation_settings(revolutions * steps, t_end)
     info = {"nodes": {"crank": nCrank, "rocker": nRocker, "coupler": nodes}, "h": h,
             "t_end": t_end}
     return SC, mbs, sim, sensors, info
@@ -236,9 +242,13 @@ def simulation_settings(n_steps: int, t_end: float):
 
 
 def run_case(omega: float, elements: int, steps: int, check: bool = False,
-             drive: str = "velocity") -> dict:
-    """Peak coupler strain and solver seconds of one speed."""
-    SC, mbs, sim, sensors, info = build(omega, elements, steps, drive)
+             drive: str = "velocity", revolutions: int = REVOLUTIONS,
+             damping_beta: float = 0.0) -> dict:
+    """Peak coupler strain and solver seconds of one speed; with more than one revolution
+    also the peak within each revolution (``peak_strain_by_revolution``: the k-th is over
+    the steps k·n < j ≤ (k+1)·n, n steps a revolution, the start excluded)."""
+    SC, mbs, sim, sensors, info = build(omega, elements, steps, drive, revolutions,
+                                        damping_beta)
     t0 = time.perf_counter()
     ok = exu.SolveDynamic(mbs, sim, solverType=exu.DynamicSolverType.GeneralizedAlpha,
                           showHints=SHOW_HINTS)
@@ -250,6 +260,12 @@ def run_case(omega: float, elements: int, steps: int, check: bool = False,
     strain = 0.5 * HEIGHT * np.abs(kappa)
     out = {"speed": omega, "peak_strain": float(strain.max()), "solver_seconds": seconds,
            "samples": int(len(times))}
+    if revolutions > 1:
+        # Samples are stored at every step from t = 0: sample j is step j.
+        turn = np.minimum((np.arange(len(times)) - 1) // steps, revolutions - 1)
+        by_turn = np.zeros(revolutions)
+        np.maximum.at(by_turn, turn[1:], strain[1:].max(axis=1))
+        out["peak_strain_by_revolution"] = by_turn.tolist()
     if check:
         # Crank angle follows Ω t exactly; end time reached; where the peak is.
         theta = mbs.GetNodeOutput(info["nodes"]["crank"], exu.OutputVariableType.Coordinates)[2]
@@ -269,16 +285,21 @@ def main(argv=None) -> int:
     p.add_argument("--speeds-json", default=None)
     p.add_argument("--check", action="store_true")
     p.add_argument("--drive", choices=("velocity", "position"), default="velocity")
+    p.add_argument("--revolutions", type=int, default=REVOLUTIONS)
+    p.add_argument("--damping-beta", type=float, default=0.0,
+                   help="stiffness-proportional damping of the coupler, s")
     args = p.parse_args(argv)
     if args.speeds_json:
         with open(args.speeds_json) as f:
             speeds = [float(x) for x in json.load(f)]
     else:
         speeds = args.speeds or [100.0]
-    cases = [run_case(w, args.elements, args.steps, args.check, args.drive) for w in speeds]
+    cases = [run_case(w, args.elements, args.steps, args.check, args.drive, args.revolutions,
+                      args.damping_beta) for w in speeds]
     json.dump({"exudyn": exu.__version__, "python": platform.python_version(),
                "elements": args.elements, "steps_per_revolution": args.steps,
-               "drive": args.drive,
+               "drive": args.drive, "revolutions": args.revolutions,
+               "damping_beta": args.damping_beta,
                "cases": cases}, sys.stdout)
     sys.stdout.write("\n")
     return 0
