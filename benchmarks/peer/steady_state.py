@@ -21,8 +21,9 @@ revolution. The peer's setting is therefore (elements, steps per revolution, rev
    time is checked at :data:`CHECK_SPEEDS` against 32 elements and 8,192 steps.
 2. Search: every (elements, steps) of :data:`ELEMENTS` × :data:`STEPS` runs
    :data:`SEARCH_REVOLUTIONS` revolutions at every speed and records the peak within each
-   revolution; its revolutions R are the fewest whose peak (that of revolution R, as a user
-   stopping there reads it) is within 1 % of the reference at **every** speed. The cheapest
+   revolution; its revolutions R are the fewest from which the peak of every revolution (that
+   of revolution R, as a user stopping there reads it, and every later one) is within 1 % of
+   the reference at **every** speed. The cheapest
    (elements, steps, R) by solver time per case (the run's time × R / its revolutions) is the
    peer's setting.
 3. Writes ``benchmarks/peer_steady_results.json``; ``benchmarks/steady_state.py`` re-runs the
@@ -66,8 +67,11 @@ def by_revolution(run: dict) -> np.ndarray:
 
 def fewest_revolutions(peaks: np.ndarray, reference: np.ndarray,
                        tolerance: float = TOLERANCE) -> int | None:
-    """The fewest revolutions R whose revolution-R peak is within ``tolerance`` of
-    ``reference`` at every speed (None if none is).
+    """The fewest revolutions R from which every revolution's peak (R, R + 1, … to the last
+    run) is within ``tolerance`` of ``reference`` at every speed (None if none is): a
+    steady state, not a revolution where the decaying transient happens to offset the
+    step's error (8 elements at 320 steps: 1.06 % off once settled, within 1 % at its 15th
+    revolution).
 
     Parameters
     ----------
@@ -77,7 +81,9 @@ def fewest_revolutions(peaks: np.ndarray, reference: np.ndarray,
         (speed,) converged steady-state peak strain.
     """
     error = np.abs(peaks / reference[:, None] - 1.0).max(axis=0)  # worst speed per R
-    passing = np.flatnonzero(error <= tolerance)
+    # from R on: the largest error of R and every later revolution
+    onward = np.maximum.accumulate(error[::-1])[::-1]
+    passing = np.flatnonzero(onward <= tolerance)
     return int(passing[0]) + 1 if len(passing) else None
 
 
