@@ -35,6 +35,9 @@ Run (inside the peer venv that ``benchmarks/peer/setup_peer.sh`` creates):
 
 prints one JSON object: exudyn version, the setting, and per speed the peak strain and the
 solver seconds. ``--speeds-json FILE`` reads the speeds from a JSON list instead.
+``--revolutions R --damping-beta β`` run R revolutions with stiffness-proportional damping
+of the coupler (β in s) and add each revolution's peak: the steady-state benchmark
+(``benchmarks/peer/steady_state.py``).
 """
 from __future__ import annotations
 
