@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 import time
@@ -161,7 +162,7 @@ def main(argv=None) -> int:
            "command": ".venv/bin/python benchmarks/peer/steady_state.py",
            "started": started, "driver_python": platform.python_version(),
            "machine": mach, "damping_beta": DAMPING_BETA, "tolerance": TOLERANCE,
-           **result, "load_average_at_end": list(__import__("os").getloadavg())}
+           **result, "load_average_at_end": list(os.getloadavg())}
     Path(args.output).write_text(json.dumps(doc, indent=1) + "\n")
     compare._log(f"wrote {args.output}")
     return 0
