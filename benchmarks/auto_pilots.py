@@ -58,7 +58,7 @@ def timed_auto(raw: list[dict], stride: int) -> tuple[dict, object]:
     """One ``simulate`` call with the pilots resolved at ``stride``: its times and dataset."""
     spent = {}
 
-    def resolve(normalized, solve):
+    def resolve(normalized, solve, **injected):
         solves = [0]
 
         def counted(pilots):
@@ -66,7 +66,8 @@ def timed_auto(raw: list[dict], stride: int) -> tuple[dict, object]:
             return solve(pilots)
 
         t0, c0 = time.perf_counter(), time.process_time()
-        out = discretization.resolve_discretization(normalized, counted, stride=stride)
+        out = discretization.resolve_discretization(normalized, counted, stride=stride,
+                                                   **injected)
         spent.update(pilots=time.perf_counter() - t0, cpu=time.process_time() - c0,
                      solves=solves[0])
         return out

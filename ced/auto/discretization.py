@@ -131,13 +131,15 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from ..problem.scene import SPECTRAL_TAIL, dump_scene
+from ..response.resonance import resonance_weight
 from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
            "MODE_CHOICES", "choose_shared",
-           "choose", "cost", "sweeps", "representatives", "bracket", "unverified", "MODES",
-           "SAFETY", "STRIDE", "INTERPOLATION_MARGIN", "SERIES_SHARE",
-           "SERIES_FULL_POINTS"]
+           "choose", "cost", "sweeps", "representatives", "bracket", "unverified",
+           "interpolated_error", "MODES", "SAFETY", "STRIDE", "PERIODIC_STRIDE",
+           "INTERPOLATION_MARGIN", "PILOTS_PER_CLIMBER", "SERIES_SHARE",
+           "SERIES_SPACE_SHARE", "SERIES_FULL_POINTS"]
 
 #: Order of peak stress in space with superconvergent recovery (observed 8× per halving).
 SPACE_ORDER = 3
@@ -176,6 +178,10 @@ SAFETY = 1.5
 #: Every STRIDE-th case of a sweep (its cases sorted by speed) climbs the ladders, and both
 #: ends: 14 of the benchmark's 100 speeds (module docstring, stage 5).
 STRIDE = 8
+#: The same for a sweep of periodic states, whose errors vary slowly in speed except at a
+#: resonance, which is searched for instead (:func:`unverified`): 4 of the benchmark's 100
+#: speeds, at most the largest stride :data:`INTERPOLATION_MARGIN` was measured at.
+PERIODIC_STRIDE = 33
 #: A case of a sweep that does not climb is predicted to err at most INTERPOLATION_MARGIN times
 #: the larger of its two bracketing climbers' errors at the chosen setting. Measured on the
 #: ladders of every case of the benchmark's 100-speed sweep (undeformed start, strides 4–11;
@@ -193,11 +199,19 @@ INTERPOLATION_MARGIN = 3.0
 #: link of a reduced link, and of a full link (constant + per interior DOF).
 COST = {"case": 2.4, "reduction": 41.0, "step_reduced": 0.037, "step_full": 0.018,
         "step_full_dof": 0.0032}
+#: A climber's pilots cost about this many of its final solves (the benchmark's 100-speed
+#: sweep: 4.1–4.2 undamped, marched and as series; 4–6 damped, as series). Where raising the
+#: shared setting costs the batch less than that per climber it spares, it is raised instead
+#: of bisecting (stage 5).
+PILOTS_PER_CLIMBER = 4.0
 #: Share of tolerance / :data:`SAFETY` left to a Fourier series' time error (its spectral
 #: tail, stage 6). The tail falls exponentially with the collocation points, so a tenth costs
 #: at most a doubling of them more than the default 0.5 % does, and leaves the mesh and the
 #: model nine tenths of the budget.
 SERIES_SHARE = 0.1
+#: A series' space ladder climbs until its last rung errs at most this share of the budget
+#: a marched one stops at (stage 6).
+SERIES_SPACE_SHARE = 1.0 / 3.0
 #: Fixed collocation points of a series' full-mesh truncation pilot. A full mesh's stiff
 #: interior modes slow the series' GMRES (the rocker-crank reference at 8 elements: 157
 #: iterations at 32 points, where 4 and 8 modes take 28, and the adaptive ladder's first level
@@ -585,7 +599,10 @@ def _climb(work: list[dict], solve: Callable, first_peaks: list[float],
     known = [{at_ladder_mesh: peak} for peak in at_steps]
 
     def space_done(j: int, peaks: list[float]) -> bool:
-        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= budget[j]
+        # A series' space rungs are cheap beside its final solve: it climbs to a finer
+        # error, which the sweep's other cases are then bounded by (stage 5).
+        share = SERIES_SPACE_SHARE if series[j] else 1.0
+        return len(peaks) >= 3 and ladder_errors(peaks, order=2.0)[-1] <= share * budget[j]
 
     shot = [False] * len(work)
     space_peaks = _ladder(work, solve, lambda r: ([rungs_x[r]] * len(work), space_steps),
@@ -714,17 +731,58 @@ def bracket(climbed, n: int) -> tuple[np.ndarray, np.ndarray]:
     return below, above
 
 
+def interpolated_error(errors, weights=None, weight=None,
+                       margin: float = INTERPOLATION_MARGIN):
+    """Predicted error of a case of a sweep between two climbers.
+
+    ``margin`` × the larger of the two climbers' errors, each first scaled by how much more
+    strongly a resonance drives the case than that climber (its weight over the climber's,
+    at least 1): the part of the error a resonance drives is bounded by about a constant times
+    the weight (:func:`ced.response.resonance.resonance_weight`), so a climber far from a
+    resonance, or one whose error the resonance happens to cancel, still bounds a case on it.
+
+    Parameters
+    ----------
+    errors : (2,) array_like
+        The two climbers' errors at the chosen setting.
+    weights : (2,) array_like, optional
+        Their resonance weights (None: no resonance search, plain ``margin`` × the larger).
+    weight : float or (m,) array_like, optional
+        The case's (or each of m cases') resonance weight.
+    margin : float
+        :data:`INTERPOLATION_MARGIN`.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The predicted relative error, of the shape of ``weight``.
+    """
+    errors = np.asarray(errors, float)
+    if weights is None:
+        return margin * errors.max()
+    weights, weight = np.asarray(weights, float), np.asarray(weight, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(weight[..., None] > weights, weight[..., None] / weights, 1.0)
+        # a climber of no weight bounds no resonance: 0 × ∞ is no bound
+        scaled = np.nan_to_num(errors * scale, nan=np.inf)
+    return margin * scaled.max(axis=-1)
+
+
 def unverified(climbed, errors, top_steps, need_steps, bar: float,
-               margin: float = INTERPOLATION_MARGIN) -> np.ndarray:
+               margin: float = INTERPOLATION_MARGIN, resonance=None) -> np.ndarray:
     """Positions of a sweep whose prediction from the climbers cannot be trusted, to climb.
 
-    A position between two climbers is predicted to err ``margin`` × the larger of their errors
-    at the chosen setting. The prediction is not trusted, and the middle of the gap climbs
-    next (bisection), where it exceeds ``bar``, or where it fails at a climber itself: its
-    error above ``margin`` × its climbing neighbours' (leave-one-out cross-validation: the
-    error varies faster in speed than the spacing resolves). A position whose excitable first
-    mode needs more steps per revolution than both climbers' time ladders reached climbs
-    itself: their ladders did not look where its error may be.
+    A position between two climbers is predicted to err as :func:`interpolated_error` says:
+    ``margin`` × the larger of their errors at the chosen setting, scaled by the resonance
+    weights where the sweep was searched for resonances (``resonance``). The prediction is not
+    trusted, and the middle of the gap climbs next (bisection), where the unscaled one exceeds
+    ``bar``, or where the rule fails at a climber itself: its error above the rule's
+    prediction from its climbing neighbours (leave-one-out cross-validation: the error varies
+    faster in speed than the spacing resolves). Where only the scaled one exceeds ``bar`` (a
+    resonance inside the gap, narrower than the climbers' spacing), the position whose
+    prediction is largest climbs. A position whose excitable first mode needs more steps per
+    revolution than both climbers' time ladders reached climbs itself: their ladders did not
+    look where its error may be.
 
     Parameters
     ----------
@@ -741,6 +799,9 @@ def unverified(climbed, errors, top_steps, need_steps, bar: float,
         Largest error a prediction may have: tolerance / :data:`SAFETY`.
     margin : float
         :data:`INTERPOLATION_MARGIN`.
+    resonance : array_like, optional
+        Each position's resonance weight (a periodic state's sweep,
+        :func:`ced.response.resonance.resonance_weight`), or None.
 
     Returns
     -------
@@ -749,17 +810,27 @@ def unverified(climbed, errors, top_steps, need_steps, bar: float,
     """
     climbed, errors = np.asarray(climbed, int), np.asarray(errors, float)
     need = np.asarray(need_steps, float)
+    weight = None if resonance is None else np.asarray(resonance, float)
     out = set()
+
+    def predicted(a: int, b: int, at):  # climbers a, b (indices into climbed), positions at
+        if weight is None:
+            return interpolated_error(errors[[a, b]], margin=margin)
+        return interpolated_error(errors[[a, b]], weight[climbed[[a, b]]], weight[at], margin)
+
     # Leave-one-out at the inner climbers: a failure there opens both gaps around it.
     suspect = np.zeros(len(climbed), bool)
-    inner = errors[1:-1] > margin * np.maximum(errors[:-2], errors[2:])
-    suspect[1:-1] |= inner
+    for c in range(1, len(climbed) - 1):
+        suspect[c] = errors[c] > predicted(c - 1, c + 1, climbed[c])
     for k, (low, high) in enumerate(zip(climbed[:-1], climbed[1:])):
         if high - low < 2:
             continue
-        failed = suspect[k] or suspect[k + 1] or margin * max(errors[k], errors[k + 1]) > bar
-        if failed:
+        if suspect[k] or suspect[k + 1] or margin * max(errors[k], errors[k + 1]) > bar:
             out.add((low + high) // 2)
+        elif weight is not None:
+            inside = predicted(k, k + 1, np.arange(low + 1, high))
+            if inside.max() > bar:
+                out.add(low + 1 + int(np.argmax(inside)))
         reached = max(top_steps[k], top_steps[k + 1])
         out.update(int(p) for p in np.flatnonzero(need[low + 1:high] > reached) + low + 1)
     return np.array(sorted(out), int)
@@ -796,6 +867,14 @@ def _setting_for(scene: dict, elements: int, steps: int, modes: int) -> dict:
                                "elements_across": 2, "modes_per_link": modes}}
 
 
+def _setting_cost(setting: tuple, revolutions: float, flexible_links: int) -> float:
+    """Modelled solve time per case of (elements, steps, modes; 0: the full mesh), ms."""
+    elements, steps, modes = setting
+    if modes:
+        return float(_reduced_cost(elements, steps, revolutions, flexible_links, modes))
+    return float(_full_cost(elements, steps, revolutions, flexible_links))
+
+
 def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
     elements, steps, modes, predicted = choice
     report = {"own_choice": [elements, steps, modes], "own_predicted_error": predicted,
@@ -808,8 +887,40 @@ def _ladder_report(climbed: _Climbed, choice: tuple) -> dict:
     return report
 
 
-def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = STRIDE
-                           ) -> tuple[list[dict], list[dict]]:
+def _sweep_resonance(speeds, climbers, spectra: list[tuple]) -> np.ndarray:
+    """Resonance weight at every position of a periodic sweep, from the frozen spectra at some
+    of its positions (``climbers``, sorted), interpolated linearly in speed: a mode's mean
+    frequency, its load's harmonics and its damping change slowly with speed (by 0.1 % over
+    the benchmark's 90–110 rad/s), unlike the weight they give.
+
+    Parameters
+    ----------
+    speeds : (n,) array_like
+        The sweep's speeds, rad/s, increasing.
+    climbers : sequence of int
+        Positions whose spectra are known.
+    spectra : list of (frequency, share, damping_ratio)
+        At each of them, :func:`ced.response.resonance.cycle_spectrum` of one case.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) :func:`ced.response.resonance.resonance_weight`.
+    """
+    speeds = np.asarray(speeds, float)
+    known = speeds[list(climbers)]
+
+    def along(values):
+        values = np.stack([np.asarray(v, float) for v in values])
+        flat = values.reshape(len(values), -1)
+        return np.stack([np.interp(speeds, known, column) for column in flat.T],
+                        axis=-1).reshape((len(speeds),) + values.shape[1:])
+
+    return resonance_weight(speeds, *(along(part) for part in zip(*spectra)))
+
+
+def resolve_discretization(scenes: list[dict], solve: Callable, stride: int | None = None,
+                           spectra: Callable | None = None) -> tuple[list[dict], list[dict]]:
     """Replace ``discretization: auto`` in normalized scenes by a chosen discretization.
 
     Parameters
@@ -824,7 +935,13 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
         any run.
     stride : int, optional
         Cases of a sweep between its first climbers (:func:`representatives`; 1: every
-        distinct case climbs its own ladders).
+        distinct case climbs its own ladders). Default :data:`STRIDE`, and
+        :data:`PERIODIC_STRIDE` for a sweep of periodic states searched for resonances.
+    spectra : callable, optional
+        list of scenes → per scene its frozen spectrum (frequency, share, damping_ratio) of
+        :func:`ced.response.resonance.cycle_spectrum`; injected by
+        :mod:`ced.simulation.simulate`. With it a periodic sweep's gaps are searched for
+        resonances (:func:`unverified`); without, they are not.
 
     Returns
     -------
@@ -895,7 +1012,25 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
     first_rungs([j for j in range(n) if not spectral[j]])
     # Stage 5: sweeps climb from representatives; gaps that cannot be trusted are bisected.
     groups = sweeps([_sweep_key(s) for s in work], [s["drive"]["speed"] for s in work])
-    climbed = [set(g[representatives(len(g), stride)].tolist()) for g in groups]
+    # A periodic state's resonances are narrower than the climbers' spacing: their places
+    # come from the frozen spectra of the first climbers, and the climbers can be sparser
+    # (stage 5).
+    periodic = [spectra is not None and len(g) > 2 and work[g[0]]["time"]["start"] == "periodic"
+                for g in groups]
+    climbed = [set(g[representatives(len(g), stride or (
+        PERIODIC_STRIDE if searched else STRIDE))].tolist())
+        for g, searched in zip(groups, periodic)]
+    resonance: list = [None] * len(groups)
+    if any(periodic):
+        at = {k: sorted(groups[k].tolist().index(j) for j in climbed[k])
+              for k in np.flatnonzero(periodic)}
+        known = spectra([_pilot(work[groups[k][p]], LADDER_ELEMENTS,
+                                work[groups[k][p]]["time"]["steps_per_revolution"])
+                         for k, positions in at.items() for p in positions])
+        for k, positions in at.items():
+            speeds = [work[j]["drive"]["speed"] for j in groups[k]]
+            resonance[k] = _sweep_resonance(speeds, positions, known[:len(positions)])
+            known = known[len(positions):]
     first_rungs(sorted(j for c in climbed for j in c))
     # A case shot at its first rung in a sweep of series has a time error no climber's ladder
     # measured: it climbs its own.
@@ -922,33 +1057,64 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
                 first_peaks[j] = None
             climb(lost)
 
-    while True:
-        climb(sorted(j for c in climbed for j in c if j not in ladders))
-        floor = np.where(series, bound, 0.0)
-        # One discretization for the call, the cheapest at which every climber meets its
-        # tolerance: the cases then share one time grid (a dataset has one step dimension)
-        # and batch together.
+    revolutions = max(s["time"]["revolutions"] for s in work)
+    flexible = max(_flexible_links(s) for s in work)
+    group_of = {int(j): k for k, g in enumerate(groups) for j in g}
+
+    def at_setting(tolerance: dict) -> tuple[tuple, dict]:
+        """The cheapest setting at which every climber meets its ``tolerance``, and each
+        climber's predicted error there."""
         elements, steps, modes, _ = choose_shared(
             [(ladders[j].space, ladders[j].time, ladders[j].truncation, ladders[j].time_floor)
-             for j in ladders],
-            [work[j]["tolerance"] for j in ladders],
-            max(s["time"]["revolutions"] for s in work),
-            max(_flexible_links(s) for s in work))
-        error = {j: float(predicted_error(ladders[j].space, ladders[j].time, elements, steps))
-                 + (ladders[j].truncation[modes] if modes else 0.0) + ladders[j].time_floor
-                 for j in ladders}
-        more = False
-        for g, c in zip(groups, climbed):
+             for j in ladders], [tolerance[j] for j in ladders], revolutions, flexible)
+        return (elements, steps, modes), {
+            j: float(predicted_error(ladders[j].space, ladders[j].time, elements, steps))
+            + (ladders[j].truncation[modes] if modes else 0.0) + ladders[j].time_floor
+            for j in ladders}
+
+    def to_climb(error: dict) -> list[np.ndarray]:
+        """Per sweep the positions whose prediction at these errors is not trusted."""
+        out = []
+        for g, c, weight in zip(groups, climbed, resonance):
             at = sorted(g.tolist().index(j) for j in c)
             # A series' time part is its own (its bound), not interpolated between climbers:
             # the margin is on the rest.
-            bisect = unverified(at, [error[g[p]] - floor[g[p]] for p in at],
-                                [ladders[g[p]].time[0][-1] for p in at], resolved_at[g],
-                                work[g[0]]["tolerance"] / SAFETY - floor[g].max())
-            c.update(g[bisect].tolist())
-            more |= bool(len(bisect))
-        if not more:
+            out.append(unverified(at, [error[g[p]] - floor[g[p]] for p in at],
+                                  [ladders[g[p]].time[0][-1] for p in at], resolved_at[g],
+                                  work[g[0]]["tolerance"] / SAFETY - floor[g].max(),
+                                  resonance=weight))
+        return out
+
+    # Raised: the setting is chosen so that INTERPOLATION_MARGIN times a climber's error fits,
+    # where that costs the batch less than the climbers it spares (stage 5).
+    raised = False
+    while True:
+        climb(sorted(j for c in climbed for j in c if j not in ladders))
+        floor = np.where(series, bound, 0.0)
+        own = {j: work[j]["tolerance"] for j in ladders}
+        bounding = {j: SAFETY * (floor[j] + (work[j]["tolerance"] / SAFETY
+                                             - floor[groups[group_of[j]]].max())
+                                 / INTERPOLATION_MARGIN)
+                    if len(groups[group_of[j]]) > 2 else own[j] for j in ladders}
+        # One discretization for the call, the cheapest at which every climber meets its
+        # tolerance: the cases then share one time grid (a dataset has one step dimension)
+        # and batch together.
+        setting, error = at_setting(bounding if raised else own)
+        bisect = to_climb(error)
+        if not raised and any(len(b) for b in bisect):
+            higher, higher_error = at_setting(bounding)
+            fewer = to_climb(higher_error)
+            spared = sum(map(len, bisect)) - sum(map(len, fewer))
+            extra = len(keys) * (_setting_cost(higher, revolutions, flexible)
+                                 - _setting_cost(setting, revolutions, flexible))
+            if spared > 0 and extra <= (PILOTS_PER_CLIMBER * spared
+                                        * _setting_cost(setting, revolutions, flexible)):
+                raised, setting, error, bisect = True, higher, higher_error, fewer
+        for g, c, b in zip(groups, climbed, bisect):
+            c.update(g[b].tolist())
+        if not any(len(b) for b in bisect):
             break
+    elements, steps, modes = setting
 
     for g, c in zip(groups, climbed):
         at = sorted(g.tolist().index(j) for j in c)
@@ -968,8 +1134,11 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int = ST
             else:
                 # Not climbed: bounded by its climbing neighbours in speed, verified above.
                 pair = [int(g[below[position]]), int(g[above[position]])]
-                predicted = INTERPOLATION_MARGIN * max(error[k] - floor[k] for k in pair) \
-                    + floor[j]
+                weight = resonance[group_of[j]]
+                predicted = float(interpolated_error(
+                    [error[k] - floor[k] for k in pair],
+                    None if weight is None else weight[[below[position], above[position]]],
+                    None if weight is None else weight[position])) + floor[j]
                 report.update(ladder="interpolated", ladder_cases=[auto[k] for k in pair],
                               interpolation_margin=INTERPOLATION_MARGIN)
             report.update(predicted_error=predicted,

@@ -27,6 +27,7 @@ from ..response.elastic import SERIES_SAMPLES, elastic_response
 from ..response.frequencies import cycle_frequencies, first_natural_frequency, modal_phases
 from ..response import model_cache
 from ..response.model_cache import model_for
+from ..response.resonance import cycle_spectrum
 from .dataset import VARIABLES, case_coordinates, make_dataset
 from .memory import keep_freed_memory
 from .size import cases_per_solve, check_run_memory
@@ -425,6 +426,22 @@ def _peaks(scenes: list[dict], keep_going: bool = False,
     return out
 
 
+def _spectra(scenes: list[dict]) -> list[tuple]:
+    """Per scene its frozen spectrum over the cycle (mean frequencies, load harmonics,
+    damping ratios: :func:`ced.response.resonance.cycle_spectrum`), in the order given: the
+    resonance search injected into :func:`ced.auto.discretization.resolve_discretization`.
+    Scenes of one structure share a batch, and a model the call already built."""
+    groups: dict[tuple, list[int]] = {}
+    for index, scene in enumerate(scenes):
+        groups.setdefault(structure_key(scene), []).append(index)
+    out: list = [None] * len(scenes)
+    for indices in groups.values():
+        spectrum = cycle_spectrum(model_for(make_batch([scenes[i] for i in indices])))
+        for c, i in enumerate(indices):
+            out[i] = tuple(part[c] for part in spectrum)
+    return out
+
+
 def _auto_estimates(reports: list[dict], tail: np.ndarray | None,
                     status: np.ndarray) -> dict[int, float]:
     """``error_estimate`` of the cases ``discretization: auto`` resolved: their predicted
@@ -487,7 +504,7 @@ def simulate(scenes) -> xr.Dataset:
     auto_discretization = None
     reports: list[dict] = [{} for _ in normalized]
     if any(s["discretization"] == "auto" for s in normalized):
-        normalized, reports = resolve_discretization(normalized, _peaks)
+        normalized, reports = resolve_discretization(normalized, _peaks, spectra=_spectra)
         auto_discretization = [json.dumps(r, sort_keys=True) if r else "" for r in reports]
     kinds = {s["mechanism"]["type"] for s in normalized}
     if len(kinds) > 1:

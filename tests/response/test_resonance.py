@@ -3,12 +3,15 @@ meets a mode's band over the cycle, whatever the start, and nowhere else."""
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given
+from hypothesis import strategies as st
 
 from ced.problem.scene import load_scene
 from ced.problem.status import STATUS_FLAGS
 from ced.response.batch import make_batch
 from ced.response.model import build_model
-from ced.response.resonance import cycle_modes
+from ced.response.resonance import (ZETA_LEAST, cycle_modes, cycle_spectrum,
+                                     resonance_weight)
 from ced.simulation.simulate import simulate
 
 REFERENCE = yaml.safe_load(open("config/scenes/reference_four_bar.yaml"))
@@ -116,3 +119,42 @@ def test_cycle_modes_by_link_blocks_equal_the_dense_reduction(monkeypatch):
     full, full_share = cycle_modes(model)
     np.testing.assert_allclose(blocked, full, rtol=1e-9)
     np.testing.assert_allclose(blocked_share, full_share, atol=1e-9)
+
+
+@given(ratio=st.floats(0.3, 3.0), zeta=st.floats(0.0, 0.2), a=st.floats(0.0, 1.0),
+       k=st.integers(1, 12))
+def test_resonance_weight_of_one_harmonic_is_its_amplification_squared(ratio, zeta, a, k):
+    # One mode whose load is all harmonic k: W = a / ((1 − r²)² + (2ζr)²), r = kΩ/ω̄, and the
+    # other harmonics add nothing.
+    share = np.zeros((1, 17, 1))
+    share[0, k, 0] = a
+    speed, omega = np.array([100.0]), np.array([[100.0 * k / ratio]])
+    w = resonance_weight(speed, omega, share, np.array([[zeta]]))
+    z = max(zeta, ZETA_LEAST)
+    assert w[0] == pytest.approx(a / ((1 - ratio**2) ** 2 + (2 * z * ratio) ** 2), rel=1e-9)
+
+
+def test_resonance_weight_peaks_where_the_periodic_states_error_does():
+    # The reference four-bar's undamped steady state across its 4:1 resonance (ω̄₁/4 ≈ 90.9
+    # rad/s), 0.2 rad/s apart: the error of a coarse mesh against a fine one (both Fourier
+    # series) is largest at the speed where the weight is, and both fall away from it.
+    speeds = np.arange(89.0, 93.01, 0.2)
+    raw = [{**REFERENCE, "modal": None, "outputs": {"error_estimate": False},
+            "drive": {"speed": float(s)},
+            "time": {"revolutions": 1, "steps_per_revolution": 128, "start": "periodic",
+                     "periodic_solver": "spectral"}} for s in speeds]
+
+    def peaks(elements):
+        ds = simulate([{**r, "discretization": {"elements_per_link": elements}} for r in raw])
+        return ds.peak_stress.max("link").values
+
+    error = np.abs(peaks(6) / peaks(24) - 1.0)
+    model = build_model(make_batch([load_scene({**r, "discretization": {
+        "elements_per_link": 8, "modes_per_link": 8}}) for r in raw]))
+    frequency, share, zeta = cycle_spectrum(model)
+    assert np.all(zeta == 0.0)
+    assert 4 * speeds[0] < frequency[0, 0] < 4 * speeds[-1]
+    weight = resonance_weight(speeds, frequency, share, zeta)
+    assert np.argmax(weight) == np.argmax(error)
+    assert error.max() > 20 * min(error[0], error[-1]) and weight.max() > 20 * min(
+        weight[0], weight[-1])
