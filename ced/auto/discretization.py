@@ -761,11 +761,11 @@ def interpolated_error(errors, weights=None, weight=None,
     if weights is None:
         return margin * errors.max()
     weights, weight = np.asarray(weights, float), np.asarray(weight, float)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         scale = np.where(weight[..., None] > weights, weight[..., None] / weights, 1.0)
         # a climber of no weight bounds no resonance: 0 × ∞ is no bound
-        scaled = np.nan_to_num(errors * scale, nan=np.inf)
-    return margin * scaled.max(axis=-1)
+        scaled = np.nan_to_num(errors * scale, nan=np.inf, posinf=np.inf)
+        return margin * scaled.max(axis=-1)
 
 
 def unverified(climbed, errors, top_steps, need_steps, bar: float,
