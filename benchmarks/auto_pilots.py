@@ -7,7 +7,9 @@ The sweep of ``benchmarks/run.py`` (reference flexible four-bar, 100 speeds 90â€
 revolutions from the undeformed state) with ``tolerance: 1e-2`` and ``discretization: auto``,
 through :func:`ced.simulate`, resolved two ways in the same run, interleaved, three times each:
 every distinct case climbing its own ladders (``stride=1``, as before sharing) and sweeps
-sharing them (:data:`ced.auto.discretization.STRIDE`). Per run: the wall time of the pilots
+sharing them (the default: :data:`ced.auto.discretization.STRIDE` from a start transient,
+:data:`~ced.auto.discretization.PERIODIC_STRIDE` for periodic states, whose sweep is searched
+for resonances). Per run: the wall time of the pilots
 (all of :func:`~ced.auto.discretization.resolve_discretization`) and of the whole call, and
 their CPU times (the machine is shared: CPU time depends less on the other load), the
 pilot solves, the cases that climbed and the setting chosen. The same sweep from a periodic
@@ -54,8 +56,9 @@ def scenes(start: str, solver: str = "shooting") -> list[dict]:
             for s in sweep.SPEEDS]
 
 
-def timed_auto(raw: list[dict], stride: int) -> tuple[dict, object]:
-    """One ``simulate`` call with the pilots resolved at ``stride``: its times and dataset."""
+def timed_auto(raw: list[dict], stride: int | None) -> tuple[dict, object]:
+    """One ``simulate`` call with the pilots resolved at ``stride`` (None: the default): its
+    times and dataset."""
     spent = {}
 
     def resolve(normalized, solve, **injected):
@@ -98,10 +101,11 @@ def compare(start: str, repeat: int = 3, solver: str = "shooting") -> tuple[dict
     simulate_module.simulate(raw[:2])  # compile before timing
     runs, last = {"before": [], "after": []}, {}
     for _ in range(repeat):
-        for name, stride in (("before", 1), ("after", discretization.STRIDE)):
+        for name, stride in (("before", 1), ("after", None)):
             row, last[name] = timed_auto(raw, stride)
             runs[name].append(row)
-            print(f"{start} {solver} {name} (stride {stride}): {row['seconds_total']:.2f} s, "
+            print(f"{start} {solver} {name} (stride {stride or 'default'}): "
+                  f"{row['seconds_total']:.2f} s, "
                   f"pilots "
                   f"{row['seconds_pilots']:.2f} s ({row['pilot_share']:.0%}; CPU "
                   f"{row['pilot_share_cpu']:.0%}), "
@@ -166,6 +170,7 @@ def main() -> None:
     started = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     results = {"started": started, "tolerance": TOLERANCE, "cases": len(sweep.SPEEDS),
                "stride": discretization.STRIDE,
+               "periodic_stride": discretization.PERIODIC_STRIDE,
                "interpolation_margin": discretization.INTERPOLATION_MARGIN}
     runs, last = compare("undeformed")
     results["undeformed"] = runs

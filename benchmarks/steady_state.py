@@ -37,6 +37,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE / "peer"))
 
 import sweep  # noqa: E402  (imports single_thread: one BLAS thread)
+import auto_pilots  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -122,23 +123,23 @@ def cheapest(reference: np.ndarray, uncertainty: float, repeat: int = 3) -> dict
 
 def auto_at(tolerance: float, reference: np.ndarray) -> dict:
     """``discretization: auto`` over the sweep through :func:`ced.simulate`: time per case
-    (best of two calls, pilots included) and true error at every speed."""
+    (best of two calls, pilots included), the pilots' share of it, the cases that climbed,
+    and the true error at every speed."""
     # Its error_estimate is its prediction (no companion is solved for it).
     raws = [{**raw_scene(s), "tolerance": tolerance, "discretization": "auto",
              "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": True}}
             for s in SPEEDS]
     simulate(raws[:2])  # compiled before timing
-    best, ds = np.inf, None
-    for _ in range(2):
-        t0 = time.perf_counter()
-        ds = simulate(raws)
-        best = min(best, time.perf_counter() - t0)
+    runs = [auto_pilots.timed_auto(raws, None) for _ in range(2)]
+    row, ds = min(runs, key=lambda run: run[0]["seconds_total"])
+    best = row["seconds_total"]
     strain = np.abs(ds.bending_strain.sel(link="coupler")).max(("step", "station")).values
     error = np.abs(strain / reference - 1.0)
     reports = [json.loads(str(v)) for v in ds.discretization_auto.values]
     stress = simulate([scene(s, *CONVERGED) for s in SPEEDS[::10]]).peak_stress.max("link")
     stress_error = np.abs(ds.peak_stress.max("link").values[::10] / stress.values - 1.0)
     return {"tolerance": tolerance, "seconds_per_case": best / len(SPEEDS),
+            "pilot_share": row["pilot_share"], "cases_climbed": row["cases_climbed"],
             "max_error": float(error.max()), "p95_error": float(np.percentile(error, 95)),
             "stress_error_every_10th_speed_max": float(stress_error.max()),
             "estimate_bounds_stress_error": float(np.mean(
@@ -223,7 +224,8 @@ def main() -> None:
     results["discretization_auto"] = auto_at(TOLERANCE, reference)
     row = results["discretization_auto"]
     log(f"auto at 1e-2: {1e3 * row['seconds_per_case']:.2f} ms/case, max error "
-        f"{row['max_error']:.2%}")
+        f"{row['max_error']:.2%}, {row['cases_climbed']} climbed, pilots "
+        f"{row['pilot_share']:.0%}")
     peer = peer_at_chosen()
     if peer is None:
         log(f"no {PEER_RESULTS.name}: run benchmarks/peer/steady_state.py; no peer comparison")
