@@ -54,7 +54,8 @@ not guessed:
    time per case fitted to the convergence study's timings (:data:`COST`). The full mesh is
    not assumed to converge like the reduced models beyond what was measured (with the modal
    damping frozen at the start, before 2026-11-29, it was 11 % off them at the change
-   point's 8 elements; docs/accuracy.md).
+   point's 8 elements; docs/accuracy.md). With a series in the call the mesh is one its
+   space ladders measured (stage 6).
 5. **Sweeps share their ladders.** Cases that differ only in their drive speed (and name) form
    a sweep (:func:`sweeps`). Every marched case solves the first rung, with its own modal
    analysis; the ladders are climbed by every :data:`STRIDE`-th case in the order of speed
@@ -107,9 +108,12 @@ not guessed:
    :data:`SAFETY` (or the scene's own, where tighter) and adds it to the prediction as a time
    error that holds at any steps; its space ladder climbs to :data:`SERIES_SPACE_SHARE` of
    the marched ladders' budget (the rungs are cheap, and the finer measured error lets the
-   sweep's other cases be bounded by it). The pilots are series at the scene's own steps
-   (its output instants): the first rung, the space ladder and the truncation; none of them needs the
-   modal analysis, and a case that does not climb solves no pilot (its first mode decides
+   sweep's other cases be bounded by it), and the mesh chosen is one of its rungs (a reduced
+   series costs about the same at any mesh, and between rungs the interpolated error was
+   found short: the convergence study's slider-crank at 1e-3, 7.5e-4 at 5 elements where
+   4.6e-4 was interpolated from 4 and 8). The pilots are series at the scene's own steps
+   (its output instants): the first rung, the space ladder and the truncation; none of them
+   needs the modal analysis, and a case that does not climb solves no pilot (its first mode decides
    nothing here). Between climbers :data:`INTERPOLATION_MARGIN` multiplies the measured part
    only: each case keeps its own tail bound. A full mesh slows a series' GMRES (its stiff
    interior modes), so its truncation pilot is solved at :data:`SERIES_FULL_POINTS` fixed
