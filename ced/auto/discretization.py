@@ -1169,6 +1169,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int | No
                     None if weight is None else weight[position])) + floor[j]
                 report.update(ladder="interpolated", ladder_cases=[auto[k] for k in pair],
                               interpolation_margin=INTERPOLATION_MARGIN)
+            if resonance[group_of[j]] is not None:  # the sweep was searched (stage 5)
+                report["resonance_weight"] = float(resonance[group_of[j]][position])
             report.update(predicted_error=predicted,
                           tolerance_met=bool(predicted <= work[j]["tolerance"]))
             if series[j]:

@@ -559,8 +559,10 @@ def test_a_resonance_between_climbers_is_found_from_the_frozen_spectra():
     ne = chosen[0]["discretization"]["elements_per_link"]
     for speed, report in zip(speeds, reports):
         assert error(ne, speed) <= report["predicted_error"] <= 1e-2 / SAFETY
+        assert report["resonance_weight"] == pytest.approx(weight(speed))
     chosen, reports = resolve_discretization(speed_sweep(speeds), sweep_solver(peak),
                                              stride=PERIODIC_STRIDE)
+    assert not any("resonance_weight" in report for report in reports)
     ne = chosen[0]["discretization"]["elements_per_link"]
     assert any(error(ne, speed) > report["predicted_error"]
                for speed, report in zip(speeds, reports))
