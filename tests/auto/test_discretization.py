@@ -526,6 +526,27 @@ def test_a_case_between_representatives_that_they_do_not_predict_climbs_its_own(
         assert true <= report["predicted_error"] <= 1e-2
 
 
+@given(errors=st.lists(st.floats(0.0, 1.0), min_size=2, max_size=2),
+       weights=st.lists(st.floats(1e-3, 1e4), min_size=2, max_size=2),
+       weight=st.lists(st.floats(0.0, 1e5), min_size=1, max_size=20))
+def test_interpolated_error_scales_each_climber_by_how_much_more_the_case_resonates(
+        errors, weights, weight):
+    plain = INTERPOLATION_MARGIN * max(errors)
+    assert interpolated_error(errors) == plain
+    predicted = interpolated_error(errors, weights, weight)
+    weight = np.array(weight)
+    # never below the plain bound, equal to it where the case resonates no more than either
+    # climber, and growing with the case's weight
+    assert np.all(predicted >= plain)
+    calm = weight <= min(weights)
+    np.testing.assert_allclose(predicted[calm], plain)
+    order = np.argsort(weight)
+    assert np.all(np.diff(predicted[order]) >= -1e-12 * predicted[order][1:])
+    expected = INTERPOLATION_MARGIN * np.max(
+        np.array(errors) * np.maximum(1.0, weight[:, None] / np.array(weights)), axis=1)
+    np.testing.assert_allclose(predicted, expected, rtol=1e-12)
+
+
 def test_a_resonance_between_climbers_is_found_from_the_frozen_spectra():
     # A periodic sweep whose space error a narrow 4:1 resonance at 91.05 rad/s (between two
     # speeds of the sweep, away from its first climbers and the middles of their gaps)
