@@ -451,7 +451,8 @@ def _auto_estimates(reports: list[dict], tail: np.ndarray | None,
     left to the companions of :func:`ced.auto.error_estimate.error_estimates`, and so is a
     case that did not climb and is flagged ``resonant`` or ``parametrically_unstable``: its
     error was bounded by its neighbours' in speed, and a resonance between them is narrower
-    than they see (the reference four-bar at 121 rad/s: bounded by 0.46 %, 335 % off)."""
+    than they see (the reference four-bar at 121 rad/s, in a sweep not searched for resonances:
+    bounded by 0.46 %, 335 % off)."""
     sharp = (status & (STATUS_FLAGS["resonant"] | STATUS_FLAGS["parametrically_unstable"])) > 0
     known = {}
     for i, report in enumerate(reports):
