@@ -967,7 +967,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int | No
         :data:`PERIODIC_STRIDE` for a sweep of periodic states searched for resonances.
     spectra : callable, optional
         list of scenes → per scene its frozen spectrum (frequency, share, damping_ratio) of
-        :func:`ced.response.resonance.cycle_spectrum`; injected by
+        :func:`ced.response.resonance.cycle_spectrum`, or None where it is not known;
+        injected by
         :mod:`ced.simulation.simulate`. With it a periodic sweep's gaps are searched for
         resonances (:func:`unverified`); without, they are not.
 
@@ -1042,23 +1043,24 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int | No
     groups = sweeps([_sweep_key(s) for s in work], [s["drive"]["speed"] for s in work])
     # A periodic state's resonances are narrower than the climbers' spacing: their places
     # come from the frozen spectra of the first climbers, and the climbers can be sparser
-    # (stage 5).
-    periodic = [spectra is not None and len(g) > 2 and work[g[0]]["time"]["start"] == "periodic"
-                for g in groups]
-    climbed = [set(g[representatives(len(g), stride or (
-        PERIODIC_STRIDE if searched else STRIDE))].tolist())
-        for g, searched in zip(groups, periodic)]
+    # (stage 5). A sweep whose spectra are not known (a motion that repeats every two turns)
+    # is not searched.
     resonance: list = [None] * len(groups)
-    if any(periodic):
-        at = {k: sorted(groups[k].tolist().index(j) for j in climbed[k])
-              for k in np.flatnonzero(periodic)}
+    searched = [k for k, g in enumerate(groups) if spectra is not None and len(g) > 2
+                and work[g[0]]["time"]["start"] == "periodic"]
+    if searched:
+        at = {k: representatives(len(groups[k]), stride or PERIODIC_STRIDE) for k in searched}
         known = spectra([_pilot(work[groups[k][p]], LADDER_ELEMENTS,
                                 work[groups[k][p]]["time"]["steps_per_revolution"])
                          for k, positions in at.items() for p in positions])
         for k, positions in at.items():
-            speeds = [work[j]["drive"]["speed"] for j in groups[k]]
-            resonance[k] = _sweep_resonance(speeds, positions, known[:len(positions)])
-            known = known[len(positions):]
+            mine, known = known[:len(positions)], known[len(positions):]
+            if all(spectrum is not None for spectrum in mine):
+                speeds = [work[j]["drive"]["speed"] for j in groups[k]]
+                resonance[k] = _sweep_resonance(speeds, positions, mine)
+    climbed = [set(g[representatives(len(g), stride or (
+        STRIDE if weight is None else PERIODIC_STRIDE))].tolist())
+        for g, weight in zip(groups, resonance)]
     first_rungs(sorted(j for c in climbed for j in c))
     # A case shot at its first rung in a sweep of series has a time error no climber's ladder
     # measured: it climbs its own.

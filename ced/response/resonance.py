@@ -214,8 +214,9 @@ def resonance_weight(speed, frequency, share, damping_ratio,
 
         W = Σ_i Σ_{k=1…harmonics} a_ik / ((1 − r_ik²)² + (2 ζ_i r_ik)²)
 
-    is, up to ε, the part of the peak's discretization error that a resonance drives: about
-    1 off resonance, and up to a_ik / (2ζ)² on one (ζ at least :data:`ZETA_LEAST`). Its use is
+    is, up to ε, the part of the peak's discretization error that a resonance drives: of
+    order 1 far from any resonance, and up to a_ik / (2ζ)² on one (ζ at least
+    :data:`ZETA_LEAST`). Its use is
     to compare cases of one speed sweep, whose ε is the same
     (:func:`ced.auto.discretization.unverified`).
 

@@ -430,15 +430,22 @@ def _spectra(scenes: list[dict]) -> list[tuple]:
     """Per scene its frozen spectrum over the cycle (mean frequencies, load harmonics,
     damping ratios: :func:`ced.response.resonance.cycle_spectrum`), in the order given: the
     resonance search injected into :func:`ced.auto.discretization.resolve_discretization`.
-    Scenes of one structure share a batch, and a model the call already built."""
+    Scenes of one structure share a batch, and a model the call already built. None for a
+    scene whose motion repeats only every two turns (a change point passed straight
+    through): its load's harmonics are not the crank's."""
     groups: dict[tuple, list[int]] = {}
     for index, scene in enumerate(scenes):
         groups.setdefault(structure_key(scene), []).append(index)
     out: list = [None] * len(scenes)
     for indices in groups.values():
-        spectrum = cycle_spectrum(model_for(make_batch([scenes[i] for i in indices])))
-        for c, i in enumerate(indices):
-            out[i] = tuple(part[c] for part in spectrum)
+        batch = make_batch([scenes[i] for i in indices])
+        once = np.flatnonzero(batch.motion_turns == 1)
+        if len(once) < len(indices):
+            batch = make_batch([scenes[indices[c]] for c in once]) if len(once) else None
+        if batch is not None:
+            spectrum = cycle_spectrum(model_for(batch))
+            for c, case in enumerate(once):
+                out[indices[case]] = tuple(part[c] for part in spectrum)
     return out
 
 

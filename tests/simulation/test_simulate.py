@@ -137,3 +137,37 @@ def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
     flagged = quiet + np.array([0, 4, 4, 0, 0, 8, 4])
     assert _auto_estimates(reports, tail, flagged) == {2: 4e-3, 3: pytest.approx(6e-3),
                                                        6: 5e-3}
+
+
+def test_the_resonance_search_knows_the_spectra_of_one_turn_motions_only():
+    # The spectra injected into discretization: auto: a crank-rocker's (its motion repeats every
+    # turn) in the order given, none for a four-bar that passes its change point once a turn
+    # (its motion repeats every two, and its load's harmonics are not the crank's).
+    from ced.problem.scene import load_scene
+    from ced.simulation.simulate import _spectra
+
+    links = {"default": {"material": "steel",  # the reference four-bar's
+                         "section": {"shape": "rectangle", "height": 0.005, "width": 0.01}},
+             "crank": {"flexible": False}, "rocker": {"flexible": False}}
+
+    def scene(mechanism, speed):
+        return load_scene({"mechanism": mechanism, "drive": {"speed": speed}, "links": links,
+                           "discretization": {"elements_per_link": 8, "modes_per_link": 8},
+                           "time": {"revolutions": 1, "steps_per_revolution": 64,
+                                    "start": "periodic"}})
+
+    crank_rocker = {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                    "rocker": 0.35}
+    change_point = {"type": "four_bar", "ground": 0.4, "crank": 0.1, "coupler": 0.35,
+                    "rocker": 0.15}
+    spectra = _spectra([scene(crank_rocker, 90.0), scene(change_point, 90.0),
+                        scene(crank_rocker, 110.0)])
+    assert spectra[1] is None
+    for spectrum in (spectra[0], spectra[2]):
+        frequency, share, zeta = spectrum
+        assert frequency.shape == zeta.shape == (4,) and share.shape == (17, 4)
+        assert np.all(np.diff(frequency) > 0) and np.all(zeta == 0.0)
+        np.testing.assert_allclose(share.sum(axis=0), 1.0)
+    # the mean frozen frequencies barely move with speed; the first is the 4:1 resonance's
+    np.testing.assert_allclose(spectra[0][0], spectra[2][0], rtol=2e-3)
+    assert 4 * 90.0 < spectra[0][0][0] < 4 * 92.0
