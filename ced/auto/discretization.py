@@ -968,9 +968,8 @@ def resolve_discretization(scenes: list[dict], solve: Callable, stride: int | No
     spectra : callable, optional
         list of scenes → per scene its frozen spectrum (frequency, share, damping_ratio) of
         :func:`ced.response.resonance.cycle_spectrum`, or None where it is not known;
-        injected by
-        :mod:`ced.simulation.simulate`. With it a periodic sweep's gaps are searched for
-        resonances (:func:`unverified`); without, they are not.
+        injected by :mod:`ced.simulation.simulate`. With it a periodic sweep's gaps are
+        searched for resonances (:func:`unverified`); without, they are not.
 
     Returns
     -------
