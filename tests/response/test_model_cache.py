@@ -192,3 +192,47 @@ def test_terms_beyond_the_bytes_allowed_are_not_kept(monkeypatch):
         batch, phases = _ladder_rung((100.0,), 64)
         evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
     assert sum(counted) == 2 * 64 and not any(model_cache._TERMS.values())
+
+
+def _family_terms(monkeypatch, kept, speed, spoil=None):
+    """Terms of one case at ``speed`` after those of the ``kept`` speeds were evaluated in one
+    batch (64 steps per revolution), against a direct evaluation: (case-phases evaluated for
+    it, its largest misfit relative to each term's largest entry)."""
+    from ced.response.period_terms import evaluate_terms
+    counted, evaluate = _counted_evaluations(monkeypatch)
+    batch, phases = _ladder_rung(kept, 64)
+    evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+    if spoil is not None:
+        spoil(next(e for entries in model_cache._TERMS.values() for e in entries))
+    batch, phases = _ladder_rung((speed,), 64)
+    counted.clear()
+    got = evaluate_terms(model_cache.model_for(batch), batch.step_size, phases)
+    want = evaluate(build_model(batch), batch.step_size[:, None] * phases[None, :])
+    assert got.keys() == want.keys()
+    misfit = max(np.abs(got[k] - want[k]).max() / np.abs(want[k]).max() for k in want)
+    return sum(counted), misfit
+
+
+def test_terms_at_another_speed_of_the_family_are_its_kept_speeds_quadratic(monkeypatch):
+    # Four kept speeds: the slowest, middle and fastest fix T0 + Ω T1 + Ω² T2, the fourth
+    # checks it; nothing is evaluated, and a direct evaluation agrees to round-off.
+    evaluated, misfit = _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 101.3)
+    assert evaluated == 0 and misfit < 1e-12
+    model_cache.clear()  # also a little outside them
+    evaluated, misfit = _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 118.0)
+    assert evaluated == 0 and misfit < 1e-12
+
+
+def test_terms_are_evaluated_where_the_family_cannot_give_them(monkeypatch):
+    # three kept speeds leave nothing to check the quadratic with
+    assert _family_terms(monkeypatch, (90.0, 100.0, 110.0), 95.0) == (64, 0.0)
+    model_cache.clear()
+    # far outside the kept speeds the interpolation would magnify their round-off
+    assert _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 400.0) == (64, 0.0)
+    model_cache.clear()
+
+    def cubic(entry):  # a term not quadratic in the speed: the check at the fourth fails
+        row = entry.cases[(0, 97.0)]
+        entry.values["stiffness"][row] *= 1.0 + 1e-6
+
+    assert _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 101.3, cubic) == (64, 0.0)
