@@ -342,21 +342,29 @@ def _lagrange(speeds: list[float], speed: float) -> np.ndarray:
                      (speed - a) * (speed - b) / ((c - a) * (c - b))])
 
 
+#: Cases combined at a time by :func:`_combine` (its temporaries stay in cache).
+_COMBINE_CASES = 8
+
+
 def _combine(values: dict, plan: dict, weights: dict, own: list, at: np.ndarray,
              ncase: int) -> dict:
     """Every term at the entry's fractions ``at`` for ``ncase`` cases: a case of ``own``
-    copied, the others Σ_j w_cj values[node_j] of their row's three nodes (a product of the
-    (case, 3) weights and the (3, …) nodes: one pass over the output)."""
+    copied, the others Σ_j w_cj values[node_j] of their row's three nodes, summed in that
+    order element by element (not by a matrix product, whose rounding may depend on how
+    many cases it multiplies: a case's terms are the same bits whatever its batch)."""
     out = {}
     for name, x in values.items():
         y = np.empty((ncase, len(at)) + x.shape[2:])
         flat = y.reshape(ncase, -1)
         for row, (nodes, given) in plan.items():
             X = np.stack([x[i][at] for _, i in nodes]).reshape(3, -1)
-            if len(given) == ncase:  # every case (a sweep of one geometry): in place
-                np.matmul(weights[row], X, out=flat)
-            else:
-                flat[given] = weights[row] @ X
+            given, w = np.asarray(given), weights[row]
+            for start in range(0, len(given), _COMBINE_CASES):
+                part = slice(start, start + _COMBINE_CASES)
+                block = w[part, 0:1] * X[0]
+                block += w[part, 1:2] * X[1]
+                block += w[part, 2:3] * X[2]
+                flat[given[part]] = block
         for c, i in own:
             y[c] = x[i][at]
         out[name] = y

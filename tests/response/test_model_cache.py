@@ -218,6 +218,13 @@ def test_terms_at_another_speed_of_the_family_are_its_kept_speeds_quadratic(monk
     # checks it; nothing is evaluated, and a direct evaluation agrees to round-off.
     evaluated, misfit = _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 101.3)
     assert evaluated == 0 and misfit < 1e-12
+    # a case's terms are the same bits whatever else its batch holds
+    from ced.response.period_terms import evaluate_terms
+    alone, phases = _ladder_rung((101.3,), 64)
+    among, _ = _ladder_rung((95.0, 101.3, 97.0, 108.0), 64)
+    got = [evaluate_terms(model_cache.model_for(b), b.step_size, phases) for b in (alone, among)]
+    for name in got[0]:
+        np.testing.assert_array_equal(got[0][name][0], got[1][name][1], err_msg=name)
     model_cache.clear()  # also a little outside them
     evaluated, misfit = _family_terms(monkeypatch, (90.0, 97.0, 103.0, 110.0), 118.0)
     assert evaluated == 0 and misfit < 1e-12
