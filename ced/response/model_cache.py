@@ -234,7 +234,9 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
     Returns
     -------
     dict of str to numpy.ndarray
-        ``evaluate``'s terms at every phase, bit for bit.
+        ``evaluate``'s terms at every phase, bit for bit; or, where four speeds of each case's
+        family are kept at these phases, their quadratic in the speed (:func:`_from_family`,
+        to round-off, and not kept).
     """
     steps = {s["time"]["steps_per_revolution"] for s in model.batch.scenes}
     entries = _TERMS.get(model.origin[0]) if model.origin is not None else None
@@ -257,10 +259,11 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
             if found.all():
                 break
     if not have.all():
+        # Not kept: every interpolation is then from evaluated terms, its nodes the same
+        # whichever part of a batch asks (:func:`_from_family`).
         family = _from_family(entries, cases, per_revolution, fractions)
         if family is not None:
-            best, have = None, np.ones(len(phases), bool)
-            new = family
+            return family
     missing = np.flatnonzero(~have)
     if len(missing):
         new = evaluate(missing)
@@ -275,7 +278,7 @@ def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
             out[name][:, known] = x[ix]
             if len(missing):
                 out[name][:, missing] = new[name]
-    if best is None or len(missing):
+    if len(missing):
         _keep(model.origin[0], cases, per_revolution, fractions, times, out)
     return out
 
