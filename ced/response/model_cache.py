@@ -297,7 +297,7 @@ def _from_family(entries: list, cases: list, per_revolution: int,
     entry, so that a term that is not quadratic in the speed is evaluated instead. The cases
     of a kept model's row share everything but the speed (:func:`model_key`). A sweep's
     first climbers, solved together, so give the terms of its later climbers and of its
-    final batch (the damped 100-speed sweep's: 28 ms evaluated, 3 ms interpolated)."""
+    final batch (the damped 100-speed sweep's: 28 ms evaluated, 5 ms interpolated)."""
     for entry in reversed(entries):
         if not _same_phases(entry.per_revolution, per_revolution):
             continue
