@@ -96,13 +96,19 @@ def timed_auto(raw: list[dict], stride: int | None) -> tuple[dict, object]:
 
 
 def compare(start: str, repeat: int = 3, solver: str = "shooting") -> tuple[dict, dict]:
-    """Both resolutions of the sweep, interleaved, ``repeat`` times; the datasets of the last."""
+    """Both resolutions of the sweep, interleaved, ``repeat`` times; what the true errors need
+    of the last datasets (:func:`kept`)."""
     raw = scenes(start, solver)
     simulate_module.simulate(raw[:2])  # compile before timing
     runs, last = {"before": [], "after": []}, {}
     for _ in range(repeat):
         for name, stride in (("before", 1), ("after", None)):
-            row, last[name] = timed_auto(raw, stride)
+            row, ds = timed_auto(raw, stride)
+            # Only a few arrays are kept: a whole dataset of the start transient (100 cases,
+            # 8,193 steps) alive through the next call made it fault in ~1.4 GB of new pages,
+            # 3 s of system time in every other call.
+            last[name] = kept(ds)
+            del ds
             runs[name].append(row)
             print(f"{start} {solver} {name} (stride {stride or 'default'}): "
                   f"{row['seconds_total']:.2f} s, "
@@ -114,6 +120,17 @@ def compare(start: str, repeat: int = 3, solver: str = "shooting") -> tuple[dict
     return runs, last
 
 
+def kept(ds) -> dict[str, np.ndarray]:
+    """Of a sweep's dataset, what :func:`true_errors` and :func:`series_true_errors` read:
+    peak stress over the links, error estimate (None without) and status at every speed, and
+    the coupler's peak |bending strain| at the CHECKED speeds."""
+    strain = np.abs(ds.isel(case=CHECKED).bending_strain.sel(link="coupler"))
+    return {"stress": ds.peak_stress.max("link").values,
+            "estimate": ds.error_estimate.values.copy() if "error_estimate" in ds else None,
+            "status": ds.status.values.copy(),
+            "checked_strain": strain.max(("step", "station")).values}
+
+
 def peaks(setting: tuple[int, int, int], indices) -> tuple[np.ndarray, np.ndarray]:
     """Peak stress (Pa, over the links) and peak coupler strain at sweep.SPEEDS[indices]."""
     out = sweep.solve_batch(make_batch([sweep.scene(s, *setting)
@@ -123,14 +140,13 @@ def peaks(setting: tuple[int, int, int], indices) -> tuple[np.ndarray, np.ndarra
 
 
 def true_errors(datasets: dict) -> dict:
-    """Each resolution's true error at the CHECKED speeds against the converged value."""
+    """Each resolution's true error at the CHECKED speeds against the converged value
+    (``datasets``: per resolution, :func:`kept`)."""
     stress_ref, strain_ref = peaks(sweep.CONVERGED, CHECKED)  # 6 speeds: one batch fits
     out = {"speeds": [float(s) for s in sweep.SPEEDS[CHECKED]],
            "reference": list(sweep.CONVERGED)}
     for name, ds in datasets.items():
-        at = ds.isel(case=CHECKED)
-        stress = at.peak_stress.max("link").values
-        strain = np.abs(at.bending_strain.sel(link="coupler")).max(("step", "station")).values
+        stress, strain = ds["stress"][CHECKED], ds["checked_strain"]
         out[name] = {"stress_error": np.abs(stress / stress_ref - 1.0).tolist(),
                      "strain_error": np.abs(strain / strain_ref - 1.0).tolist()}
         out[name]["max_stress_error"] = max(out[name]["stress_error"])
@@ -141,7 +157,7 @@ def true_errors(datasets: dict) -> dict:
     return out
 
 
-def series_true_errors(ds) -> dict:
+def series_true_errors(ds: dict) -> dict:
     """The spectral sweep's true error on peak stress at every speed, against 32 elements of
     every FE DOF at 256 collocation points (the series converges exponentially), and how
     often the estimate bounds it."""
@@ -152,14 +168,13 @@ def series_true_errors(ds) -> dict:
                   "steps_per_revolution": 128, "collocation_points": 256},
          "outputs": {**sweep.REFERENCE_SCENE["outputs"], "every": 128}}
         for s in sweep.SPEEDS])
-    error = np.abs(ds.peak_stress.max("link").values
-                   / converged.peak_stress.max("link").values - 1.0)
-    estimate = ds.error_estimate.values
+    error = np.abs(ds["stress"] / converged.peak_stress.max("link").values - 1.0)
+    estimate = ds["estimate"]
     out = {"reference": [32, 0, "256 collocation points"], "max_stress_error": float(error.max()),
            "p95_stress_error": float(np.percentile(error, 95)),
            "estimate_bounds_true": float(np.mean(error <= estimate)),
            "max_estimate": float(estimate.max()),
-           "flagged_resonant": int(((ds.status.values & 4) > 0).sum())}
+           "flagged_resonant": int(((ds["status"] & 4) > 0).sum())}
     print(f"periodic spectral: true error at {len(error)} speeds: max "
           f"{out['max_stress_error']:.2%}, estimate above it at "
           f"{out['estimate_bounds_true']:.0%}", flush=True)
