@@ -95,6 +95,8 @@ def timed_batch(scenes: list[dict], repeat: int = 1) -> tuple[dict, float]:
     for _ in range(repeat):
         batch = make_batch(scenes)
         model_cache.clear()
+        out = None  # the last solve's histories, released first: alive, they made the next
+        # solve fault in as much memory again (benchmarks/auto_pilots.py, 3 s a call there)
         t0 = time.perf_counter()
         out = solve_batch(batch)
         best = min(best, time.perf_counter() - t0)
