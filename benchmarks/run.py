@@ -98,6 +98,7 @@ def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
                        "time": {"revolutions": 2, "steps_per_revolution": steps,
                                 "start": "undeformed"}}
                       for s in np.linspace(90.0, 110.0, size)]
+            ds = None  # the last call's dataset, released first (sweep.timed_batch)
             t0 = time.perf_counter()
             ds = simulate(scenes)
             times[flag] = min(times[flag], (time.perf_counter() - t0) / size)
