@@ -1,5 +1,7 @@
 """``ced.simulate`` (ced.simulation.simulate): failing cases are isolated and recorded, and no
 case carries a non-finite value unless it is failed, with the cause in its message."""
+import json
+
 import numpy as np
 import pytest
 
@@ -121,9 +123,10 @@ def test_cases_of_interleaved_structures_come_back_in_the_callers_order():
 
 def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
     # discretization: auto's prediction is a case's estimate; a case predicted as a series
-    # adds what its own tail exceeds the bound it was refined to, and one that was shot in the
+    # adds what its own series' tail exceeds the bound it was refined to, and one that was shot in the
     # end is left to the error estimate's companions.
-    # A case bounded by its neighbours but flagged resonant or unstable gets companions too.
+    # A case bounded by its neighbours but flagged resonant or unstable gets companions too,
+    # its prediction a floor under theirs.
     from ced.simulation.simulate import _auto_estimates
     series = {"predicted_error": 4e-3, "time_error": "spectral_tail",
               "spectral_tail_bound": 1e-3, "ladder": "own"}
@@ -131,12 +134,41 @@ def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
                {**series, "ladder": "interpolated"}, {"predicted_error": 5e-3, "ladder": "own"}]
     tail = np.array([np.nan, np.nan, 2e-7, 3e-3, np.nan, 2e-7, np.nan])
     quiet = np.zeros(len(reports), np.int64)
-    assert _auto_estimates(reports, tail, quiet) == {1: 5e-3, 2: 4e-3, 3: pytest.approx(6e-3),
-                                                     5: 4e-3, 6: 5e-3}
-    assert _auto_estimates(reports, None, quiet) == {1: 5e-3, 6: 5e-3}
+    assert _auto_estimates(reports, tail, quiet) == (
+        {1: 5e-3, 2: 4e-3, 3: pytest.approx(6e-3), 5: 4e-3, 6: 5e-3}, {})
+    assert _auto_estimates(reports, None, quiet) == ({1: 5e-3, 6: 5e-3}, {})
     flagged = quiet + np.array([0, 4, 4, 0, 0, 8, 4])
-    assert _auto_estimates(reports, tail, flagged) == {2: 4e-3, 3: pytest.approx(6e-3),
-                                                       6: 5e-3}
+    assert _auto_estimates(reports, tail, flagged) == (
+        {2: 4e-3, 3: pytest.approx(6e-3), 6: 5e-3}, {1: 5e-3, 5: 4e-3})
+    # a flagged interpolated series shot in the end: no prediction to floor it
+    assert _auto_estimates(reports, None, flagged) == ({6: 5e-3}, {1: 5e-3})
+
+
+def test_a_flagged_case_between_climbers_is_estimated_no_lower_than_its_prediction():
+    # The reference four-bar's undamped periodic sweep: every case is flagged resonant, so the
+    # cases between climbers are estimated by companions, each raised to its prediction
+    # where the companions' is lower.
+    base = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
+                          "rocker": 0.35},
+            "links": {"default": {"material": "steel",
+                                  "section": {"shape": "rectangle", "height": 0.005,
+                                              "width": 0.01}},
+                      "crank": {"flexible": False}, "rocker": {"flexible": False}},
+            "time": {"revolutions": 1, "start": "periodic", "periodic_solver": "spectral",
+                     "steps_per_revolution": 128},
+            "discretization": "auto", "tolerance": 1e-2,
+            "outputs": {"stations": 21, "error_estimate": True, "every": 128}}
+    ds = simulate([{**base, "drive": {"speed": float(s)}} for s in np.linspace(90, 110, 12)])
+    reports = [json.loads(str(r)) for r in ds.discretization_auto.values]
+    sharp = (ds.status.values & (STATUS_FLAGS["resonant"]
+                                 | STATUS_FLAGS["parametrically_unstable"])) > 0
+    between = [i for i, r in enumerate(reports) if r["ladder"] == "interpolated" and sharp[i]]
+    assert between  # the sweep has such cases
+    estimate = ds.error_estimate.values
+    for i in between:
+        assert estimate[i] >= reports[i]["predicted_error"]
+    # the companions' own estimate was lower at some: the floor is what they report
+    assert any(estimate[i] == reports[i]["predicted_error"] for i in between)
 
 
 def test_the_resonance_search_knows_the_spectra_of_one_turn_motions_only():
