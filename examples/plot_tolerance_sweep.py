@@ -52,8 +52,9 @@ print("climbed:", ", ".join(f"{s:g}" for s, r in zip(speeds, reports) if r["ladd
 # 121 rad/s reads a hundred times the stress beside it. The result there is converged (its
 # own ladders bound it), but it is a resonance: the flag ``resonant`` is the message, not the
 # number. A speed flagged ``resonant`` that did not climb is not bounded by its neighbours:
-# its estimate comes from a solve on a coarser mesh, like a case of a fixed discretization's,
-# and where it exceeds the tolerance ``status`` says ``tolerance_unmet``.
+# its estimate comes from a solve on a coarser mesh, like a case of a fixed discretization's
+# (never below what its neighbours predict), and where it exceeds the tolerance ``status``
+# says ``tolerance_unmet``.
 peak = 1e-6 * ds.peak_stress.sel(link="coupler").values  # MPa
 estimate = ds.error_estimate.values
 resonant = (ds.status.values & 4) > 0

@@ -70,12 +70,13 @@ not guessed:
    setting on a prediction that was not checked, and in the worst case every case climbs, as
    without sharing. A case that did not climb and whose own solve flags it ``resonant`` or
    ``parametrically_unstable`` is not bounded by its neighbours (a resonance is narrower than
-   their spacing): :mod:`ced.simulation.simulate` gives it the ordinary companions' estimate. Speed is the one parameter shared over: it is scalar (a gap has two
-   ends), it is what sweeps vary, and it leaves the structure alone; link lengths change the
-   family and meet singular positions (the change point), material and section change the
-   natural frequencies and the balance of axial and bending stress together, so cases near
-   in them need not have similar ladders, and several of them at once leave no order to
-   bisect in.
+   their spacing): :mod:`ced.simulation.simulate` gives it the ordinary companions' estimate,
+   its prediction a floor under it. Speed is the one parameter shared over: it is scalar (a
+   gap has two ends), it is what sweeps vary, and it leaves the structure alone; link lengths
+   change the family and meet singular positions (the change point), material and section
+   change the natural frequencies and the balance of axial and bending stress together, so
+   cases near in them need not have similar ladders, and several of them at once leave no
+   order to bisect in.
    From a start transient the ladders vary much faster in speed than in the steady state (the
    benchmark's undeformed sweep: neighbouring speeds' own choices range from 48 to 1624 steps
    per revolution, where its periodic sweep's are smooth): there bisection climbs about half
