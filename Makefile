@@ -55,6 +55,7 @@ bench: $(STAMP) bench-memory
 	$(BIN)/python benchmarks/study_estimate_check.py
 	$(BIN)/python benchmarks/auto_pilots.py
 	$(BIN)/python benchmarks/auto_series_check.py
+	$(BIN)/python benchmarks/auto_wide_sweeps.py
 	@if [ -d results/default/benchmarks ]; then $(BIN)/python benchmarks/study_stages.py; fi
 
 # The reduction's peak memory at 500 and 5,000 cases (benchmarks/reduce_memory.json): flat,

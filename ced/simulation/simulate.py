@@ -464,8 +464,8 @@ def _auto_estimates(reports: list[dict], tail: np.ndarray | None,
     sweep not searched for resonances: bounded by 0.46 %, 335 % off). Its prediction stays a
     floor under the companions' estimate: the coarser mesh of a companion sees the resonance
     but can miss the error the neighbours measured (the reference four-bar's undamped
-    periodic sweep over 40–160 rad/s: 10 of 100 such estimates below the true error, by up to
-    6.9 times, every one within its prediction).
+    periodic sweep over 40–160 rad/s: 10 of its 35 such estimates below the true error, by up
+    to 6.9 times, every one within its prediction; ``benchmarks/auto_wide_sweeps.py``).
 
     Returns
     -------
