@@ -204,6 +204,8 @@ class _KeptTerms(NamedTuple):
     #: (rows of three nodes and a check) -> whether the terms are quadratic in the speed
     #: there (:func:`_from_family`), filled as asked
     quadratic: dict[tuple, bool]
+    #: case of the kept model -> its kept (speed, row)s, by speed: the speed families
+    families: dict[int, list[tuple[float, int]]]
 
 
 def kept_terms(model: Model, h: np.ndarray, phases: np.ndarray,
@@ -299,14 +301,17 @@ def _from_family(entries: list, cases: list, per_revolution: int,
     first climbers, solved together, so give the terms of its later climbers and of its
     final batch (the damped 100-speed sweep's: 28 ms evaluated, 5 ms interpolated)."""
     for entry in reversed(entries):
+        family = entry.families
+        # Most entries hold too few speeds of the family: told by their keys alone, before
+        # any array is compared (a sweep's pilots scan tens of entries a solve).
+        if not all(c in entry.cases or len(family.get(c[0], ())) >= FAMILY_SPEEDS
+                   for c in cases):
+            continue
         if not _same_phases(entry.per_revolution, per_revolution):
             continue
         at = np.minimum(np.searchsorted(entry.fractions, fractions), len(entry.fractions) - 1)
         if not np.array_equal(entry.fractions[at], fractions):
             continue
-        family: dict[int, list[tuple[float, int]]] = {}
-        for (row, speed), index in entry.cases.items():
-            family.setdefault(row, []).append((speed, index))
         plan: dict[int, tuple] = {}  # row -> (its three nodes, the cases it gives)
         own: list[tuple[int, int]] = []  # (case, index) of a case whose speed is kept
         for c, (row, speed) in enumerate(cases):
@@ -317,7 +322,7 @@ def _from_family(entries: list, cases: list, per_revolution: int,
                 break
             else:
                 if row not in plan:
-                    known = sorted(family[row])
+                    known = family[row]
                     middle = min(known[1:-1], key=lambda k: abs(k[0] - 0.5 * (known[0][0]
                                                                                 + known[-1][0])))
                     nodes = (known[0], middle, known[-1])
@@ -406,9 +411,14 @@ def _keep(serial: int, cases: list, per_revolution: int, fractions: np.ndarray,
         oldest = next(k for k, v in _TERMS.items() if v)
         _TERM_BYTES[0] -= _nbytes(_TERMS[oldest].pop(0))
     order = np.argsort(fractions, kind="stable")
-    _TERMS[serial].append(_KeptTerms({c: i for i, c in enumerate(cases)}, per_revolution,
+    rows = {c: i for i, c in enumerate(cases)}
+    families: dict[int, list[tuple[float, int]]] = {}
+    for (row, speed), i in rows.items():
+        families.setdefault(row, []).append((speed, i))
+    _TERMS[serial].append(_KeptTerms(rows, per_revolution,
                                      fractions[order], times[:, order],
-                                     {k: x[:, order] for k, x in values.items()}, {}))
+                                     {k: x[:, order] for k, x in values.items()}, {},
+                                     {row: sorted(known) for row, known in families.items()}))
     _TERM_BYTES[0] += size
 
 
