@@ -37,20 +37,24 @@ REFERENCE_SCENE = {
 #: ced's converged setting: (elements, modes per link (0: every FE DOF), steps/rev). At 8192
 #: steps the start transient's 0.6–5 kHz ringing still has its phase up to 0.5 % wrong at
 #: some speeds; 32768 are within 0.04 % of twice as many (``run.py``'s
-#: ``reference_refinement``).
-CONVERGED = (16, 0, 32768)
+#: ``reference_refinement``). The mesh moves that phase too: 16 elements (the converged value
+#: until 2026-11-29 evening) were up to 0.22 % off 64 elements in peak coupler strain (90.2
+#: rad/s; 16 → 32 → 64 converged at orders −1 to 4, not 3), 32 elements up to 0.13 %.
+CONVERGED = (32, 0, 32768)
 #: Speeds of the converged value solved at once: its outputs at every step of 65,536 are
 #: 0.1 GB a case.
 CONVERGED_CHUNK = 10
 #: Candidate settings, searched for the cheapest within 1 % at every speed (elements, modes per
-#: link, steps per revolution). Measured: 4 elements stay ≥ 1.6 % off at any step (space
+#: link, steps per revolution); the 10–16-element ones pass by more than a cancellation of
+#: the mesh's and the step's errors (docs/performance.md, "What a hundredfold would take"). Measured: 4 elements stay ≥ 1.6 % off at any step (space
 #: error); 8 elements are ~1 % off once the time error is gone, so the 8-element settings
 #: pass where the scheme's period error (modes too slow) offsets the mesh's (too stiff);
 #: below 1024 steps per revolution the phase of modes 2-3 drifts (2 % at 768).
 CANDIDATES = [(4, 0, 1024), (4, 0, 2048), (6, 0, 1024), (6, 0, 1280),
               (8, 0, 512), (8, 0, 768), (8, 0, 1024), (8, 0, 1280),
               (8, 4, 768), (8, 4, 896), (8, 4, 1024), (8, 4, 1280),
-              (8, 8, 768), (8, 8, 1024), (8, 8, 1280)]
+              (8, 8, 768), (8, 8, 1024), (8, 8, 1280),
+              (10, 8, 1280), (10, 8, 1536), (12, 8, 1536), (12, 8, 2048), (16, 8, 2048)]
 TOLERANCE = 0.01
 
 
