@@ -3,8 +3,10 @@
 The convergence study (``config/studies/convergence.yaml``) validates the estimate in the
 periodic steady state only. This checks it where free vibrations ring: the benchmark's sweep
 (reference flexible four-bar, undeformed start, two revolutions, no damping; every 5th of
-its 100 speeds), at settings from coarse to fine, against 16 elements at 16,384 steps per
-revolution (every FE DOF). For each setting: the largest true error of peak stress, the
+its 100 speeds), at settings from coarse to fine, against ced's converged value of
+``run.py`` (:data:`sweep.CONVERGED`: 32 elements of every FE DOF at 32,768 steps per
+revolution; 16 elements at 16,384 steps until 2026-11-29 evening, themselves up to a few
+tenths of a percent off in space and time). For each setting: the largest true error of peak stress, the
 share of speeds whose true error is at most the estimate, and the median estimate / true.
 Results go to ``benchmarks/estimate_honesty.json``; docs/accuracy.md quotes them.
 
@@ -23,7 +25,7 @@ import sweep  # noqa: E402
 from ced.simulation.simulate import _case_peak, simulate  # noqa: E402
 
 SPEEDS = sweep.SPEEDS[::5]
-REFERENCE = (16, 0, 16384)
+REFERENCE = sweep.CONVERGED
 #: (elements, modes per link (0: every FE DOF), steps per revolution).
 SETTINGS = [(4, 0, 256), (8, 0, 256), (8, 0, 512), (8, 0, 768), (8, 0, 1024), (6, 0, 1024),
             (8, 8, 1024), (16, 0, 1024), (8, 0, 2048)]
