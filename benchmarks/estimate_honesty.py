@@ -6,8 +6,9 @@ periodic steady state only. This checks it where free vibrations ring: the bench
 its 100 speeds), at settings from coarse to fine, against ced's converged value of
 ``run.py`` (:data:`sweep.CONVERGED`: 32 elements of every FE DOF at 32,768 steps per
 revolution; 16 elements at 16,384 steps until 2026-11-29 evening, themselves up to a few
-tenths of a percent off in space and time). For each setting: the largest true error of peak stress, the
-share of speeds whose true error is at most the estimate, and the median estimate / true.
+tenths of a percent off in space and time). For each setting: the largest true error of peak
+stress, the share of speeds whose true error is at most the estimate, and the median
+estimate / true.
 Results go to ``benchmarks/estimate_honesty.json``; docs/accuracy.md quotes them.
 
 Run ``.venv/bin/python benchmarks/estimate_honesty.py`` (about five minutes on 2 cores).

@@ -123,7 +123,7 @@ def test_cases_of_interleaved_structures_come_back_in_the_callers_order():
 
 def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
     # discretization: auto's prediction is a case's estimate; a case predicted as a series
-    # adds what its own series' tail exceeds the bound it was refined to, and one that was shot in the
+    # adds what its own tail exceeds the bound it was refined to, and one that was shot in the
     # end is left to the error estimate's companions.
     # A case bounded by its neighbours but flagged resonant or unstable gets companions too,
     # its prediction a floor under theirs.
@@ -145,9 +145,9 @@ def test_auto_estimates_are_the_predictions_with_the_series_own_tail():
 
 
 def test_a_flagged_case_between_climbers_is_estimated_no_lower_than_its_prediction():
-    # The reference four-bar's undamped periodic sweep: every case is flagged resonant, so the
-    # cases between climbers are estimated by companions, each raised to its prediction
-    # where the companions' is lower.
+    # The reference four-bar's undamped periodic sweep: its slower speeds are flagged
+    # resonant, so those between climbers are estimated by companions, each raised to its
+    # prediction where the companions' is lower.
     base = {"mechanism": {"type": "four_bar", "ground": 0.5, "crank": 0.1, "coupler": 0.45,
                           "rocker": 0.35},
             "links": {"default": {"material": "steel",
