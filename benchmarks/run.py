@@ -20,7 +20,8 @@ and are printed as they come. One process, one BLAS thread: this measures one co
    ``--peer-search`` redoes the peer's whole search (about 30 min).
 3. **Batch scaling**: ced's setting in batches of 100, 1,000 and 10,000 cases.
 4. **Error estimate and ``discretization: auto``** on the sweep: the estimate's cost against
-   the solve it estimates; ``tolerance: 1e-2`` with ``discretization: auto`` — its time per
+   the solve it estimates, its companions shared along the sweep (the default) and with every
+   case solving its own; ``tolerance: 1e-2`` with ``discretization: auto`` — its time per
    case and its true error at every speed against the converged value.
 """
 from __future__ import annotations
@@ -40,10 +41,13 @@ sys.path.insert(0, str(HERE / "peer"))
 
 import sweep  # noqa: E402
 
+from ced.auto import sweep_estimate  # noqa: E402
+from ced.simulation.dataset import ESTIMATE_SOURCES  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402
 
 RESULTS = HERE / "results.json"
 PEER_RESULTS = HERE / "peer_results.json"
+SHARED_MIN_CASES = sweep_estimate.MIN_CASES
 
 
 def log(msg: str) -> None:
@@ -104,26 +108,38 @@ def reference_refinement(reference: np.ndarray, reference_stress: np.ndarray,
 
 
 def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
-    """Wall time per case of ``simulate`` on the sweep with and without ``error_estimate`` at
-    ``setting``, measured in this process, interleaved, best of two each."""
+    """Wall time per case of ``simulate`` on the sweep without ``error_estimate``, with it
+    (companions shared along the sweep, the default: ``ced.auto.sweep_estimate``), and with
+    every case solving its own companions (sharing switched off here), measured in this
+    process, interleaved, best of two each."""
     elements, modes, steps = setting
-    times = {False: np.inf, True: np.inf}
+    runs = ("without", "shared", "own")
+    times = dict.fromkeys(runs, np.inf)
     for _ in range(2):  # interleaved, best of two: the load changes while it runs
-        for flag in (False, True):
+        for run in runs:
             scenes = [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)},
-                       "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": flag},
+                       "outputs": {**sweep.REFERENCE_SCENE["outputs"],
+                                   "error_estimate": run != "without"},
                        "discretization": {"elements_per_link": elements,
                                           "modes_per_link": modes},
                        "time": {"revolutions": 2, "steps_per_revolution": steps,
                                 "start": "undeformed"}}
                       for s in np.linspace(90.0, 110.0, size)]
             ds = None  # the last call's dataset, released first (sweep.timed_batch)
+            sweep_estimate.MIN_CASES = 10**9 if run == "own" else SHARED_MIN_CASES
             t0 = time.perf_counter()
             ds = simulate(scenes)
-            times[flag] = min(times[flag], (time.perf_counter() - t0) / size)
-            assert ("error_estimate" in ds) == flag
-    return {"setting": list(setting), "seconds_per_case_without": times[False],
-            "seconds_per_case_with": times[True], "overhead": times[True] / times[False] - 1.0}
+            times[run] = min(times[run], (time.perf_counter() - t0) / size)
+            sweep_estimate.MIN_CASES = SHARED_MIN_CASES
+            assert ("error_estimate" in ds) == (run != "without")
+            if run == "shared":
+                source = ds.error_estimate_source.values
+                companions = int((source == ESTIMATE_SOURCES["companions"]).sum())
+    return {"setting": list(setting), "seconds_per_case_without": times["without"],
+            "seconds_per_case_with": times["shared"], "overhead": times["shared"] / times[
+                "without"] - 1.0, "cases_with_companions": companions,
+            "seconds_per_case_every_case_its_own": times["own"],
+            "overhead_every_case_its_own": times["own"] / times["without"] - 1.0}
 
 
 def auto_at(tolerance: float, reference: np.ndarray, reference_stress: np.ndarray,
@@ -206,7 +222,9 @@ def main(argv=None) -> None:
             f"{peer['speedup']:.1f}× faster")
     results["batch_scaling"] = sweep.batch_scaling(setting, log=log)
     results["error_estimate"] = estimate_cost(setting)
-    log(f"error_estimate at {setting}: +{results['error_estimate']['overhead']:.0%}")
+    log(f"error_estimate at {setting}: +{results['error_estimate']['overhead']:.0%} shared "
+        f"along the sweep, +{results['error_estimate']['overhead_every_case_its_own']:.0%} "
+        f"with every case's own companions")
     results["discretization_auto"] = auto_at(1e-2, reference, reference_stress,
                                              refinement["stress_max_difference"])
     row = results["discretization_auto"]

@@ -160,7 +160,7 @@ from .error_estimate import TIME_ORDER
 
 __all__ = ["resolve_discretization", "ladder_errors", "interpolate", "predicted_error",
            "MODE_CHOICES", "choose_shared",
-           "choose", "cost", "sweeps", "representatives", "bracket", "unverified",
+           "choose", "cost", "sweeps", "sweep_key", "representatives", "bracket", "unverified",
            "interpolated_error", "MODES", "SAFETY", "STRIDE", "PERIODIC_STRIDE",
            "INTERPOLATION_MARGIN", "PILOTS_PER_CLIMBER", "SERIES_SHARE",
            "SERIES_SPACE_SHARE", "SERIES_FULL_POINTS"]
@@ -685,7 +685,7 @@ def _truncation(work: list[dict], solve: Callable, steps: list[int],
             for j in range(len(work))]
 
 
-def _sweep_key(scene: dict) -> bytes:
+def sweep_key(scene: dict) -> bytes:
     """A key of a normalized scene without its name and drive speed: equal keys, one sweep in
     speed. :mod:`marshal`'s bytes, as :func:`ced.response.model_cache.model_key`'s: equal
     bytes are equal scenes, and a scene holding a value differently (another key order, 1
@@ -700,7 +700,7 @@ def _sweep_key(scene: dict) -> bytes:
 
 def _pilot_key(scene: dict) -> tuple[bytes, float]:
     """A key of a normalized scene without its name: equal keys, equal pilots."""
-    return _sweep_key(scene), scene["drive"]["speed"]
+    return sweep_key(scene), scene["drive"]["speed"]
 
 
 def sweeps(keys: list, speeds) -> list[np.ndarray]:
@@ -709,7 +709,7 @@ def sweeps(keys: list, speeds) -> list[np.ndarray]:
     Parameters
     ----------
     keys : list of hashable
-        Each case's scene without its name and speed (:func:`_sweep_key`).
+        Each case's scene without its name and speed (:func:`sweep_key`).
     speeds : array_like
         Each case's input speed, rad/s.
 

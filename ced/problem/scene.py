@@ -308,8 +308,11 @@ MEANINGS: dict[str, str] = {
                         "written (0 and 1 are the link's ends)",
     "outputs.every": ("write every n-th time step (the histories only: the peaks, dynamic "
                       "amplification and error estimate are over every step)"),
-    "outputs.error_estimate": "estimate each elastic case's discretization error from a coarser "
-                              "companion solution (costs one more, cheaper solve)",
+    "outputs.error_estimate": "estimate each elastic case's discretization error from "
+                              "companion solutions (a periodic start: one coarser solve; a "
+                              "start transient: two, one at twice the steps, shared along a "
+                              "speed sweep of 17 or more cases run together: "
+                              "`error_estimate_source`)",
     "tolerance": "target relative error of the automatic choices (effects: auto, "
                  "discretization: auto)",
 }

@@ -28,10 +28,15 @@ from ..problem.status import (STATUS_ADVICE, STATUS_DTYPE, STATUS_FLAGS, STATUS_
                               status_names)
 from ..response.batch import Batch
 
-__all__ = ["VARIABLES", "PRESENCE", "DIMENSIONS", "CASE_COORDINATES", "REFERENCES", "make_dataset",
-           "case_coordinates", "source_string", "dataset_reference"]
+__all__ = ["VARIABLES", "PRESENCE", "ESTIMATE_SOURCES", "DIMENSIONS", "CASE_COORDINATES",
+           "REFERENCES", "make_dataset", "case_coordinates", "source_string",
+           "dataset_reference"]
 
 _F64, _F32 = "float64", "float32"
+
+#: ``error_estimate_source``'s flag values (``ced.auto.sweep_estimate`` shares companions).
+ESTIMATE_SOURCES = {"none": 0, "companions": 1, "discretization_auto": 2,
+                    "sweep_neighbours": 3}
 
 #: name -> (dims, units, long_name, dtype)
 VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
@@ -94,6 +99,11 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "error_estimate": (
         ("case",), "1",
         "estimated relative discretization error of the case's peak stress", _F64),
+    "error_estimate_source": (
+        ("case",), "1", "where error_estimate comes from: none (NaN), companions (the case's "
+        "own coarser solutions), discretization_auto (the ladders' prediction), "
+        "sweep_neighbours (a multiple of the larger estimate of the two nearest cases in "
+        "speed that solved their companions: a speed sweep from a start transient)", "int8"),
     "effects_auto": (
         ("case",), "", "effects chosen by effects: auto, with the estimated relative "
         "contribution of each (JSON; null if not auto)", "str"),
@@ -138,6 +148,8 @@ PRESENCE: dict[str, str] = {
     "discretization_auto": "when a scene of the run has `discretization: auto`",
     "error_estimate": "elastic formulations unless every scene sets "
                       "`outputs.error_estimate: false`; NaN where no estimate could be made",
+    "error_estimate_source": "with `error_estimate` (flag values: `flag_values`, "
+                             "`flag_meanings`)",
     "effects_auto": "when a scene of the run has `effects: auto`",
     "status": "always (bit flags: `flag_masks`, `flag_meanings`)",
     "message": "always",
@@ -269,6 +281,9 @@ def make_dataset(
                 [sum(STATUS_FLAGS.values())] + list(STATUS_FLAGS.values()), dtype=STATUS_DTYPE)
             attrs["flag_values"] = np.array([0] + list(STATUS_FLAGS.values()), dtype=STATUS_DTYPE)
             attrs["flag_meanings"] = " ".join(["ok"] + list(STATUS_FLAGS))
+        if name == "error_estimate_source":
+            attrs["flag_values"] = np.array(list(ESTIMATE_SOURCES.values()), dtype="int8")
+            attrs["flag_meanings"] = " ".join(ESTIMATE_SOURCES)
         variables[name] = xr.Variable(dims, values, attrs)
     if any("fibre" in v.dims for v in variables.values()) and "fibre" not in coords:
         coords = {**coords, "fibre": ("fibre", np.array(FIBRES), {

@@ -18,6 +18,7 @@ import xarray as xr
 from ..auto.discretization import resolve_discretization
 from ..auto.effects import resolve_auto
 from ..auto.error_estimate import error_estimates
+from ..auto.sweep_estimate import sweep_estimates
 from ..problem.errors import SceneError, join
 from ..problem.mechanism import topology
 from ..problem.scene import EFFECTS, load_scene
@@ -28,7 +29,7 @@ from ..response.frequencies import cycle_frequencies, first_natural_frequency, m
 from ..response import model_cache
 from ..response.model_cache import model_for
 from ..response.resonance import cycle_spectrum
-from .dataset import VARIABLES, case_coordinates, make_dataset
+from .dataset import ESTIMATE_SOURCES, VARIABLES, case_coordinates, make_dataset
 from .memory import keep_freed_memory
 from .size import cases_per_solve, check_run_memory
 
@@ -493,6 +494,17 @@ def _auto_estimates(reports: list[dict], tail: np.ndarray | None,
     return known, floors
 
 
+def _estimate_source(estimate: np.ndarray, known: dict[int, float],
+                     interpolated: np.ndarray) -> np.ndarray:
+    """Where each case's ``error_estimate`` comes from (``error_estimate_source``'s flag
+    values, :data:`ced.simulation.dataset.ESTIMATE_SOURCES`)."""
+    source = np.where(np.isnan(estimate), ESTIMATE_SOURCES["none"],
+                      ESTIMATE_SOURCES["companions"])
+    source[list(known)] = ESTIMATE_SOURCES["discretization_auto"]
+    source[interpolated] = ESTIMATE_SOURCES["sweep_neighbours"]
+    return np.where(np.isnan(estimate), ESTIMATE_SOURCES["none"], source).astype("int8")
+
+
 def simulate(scenes) -> xr.Dataset:
     """Run one scene or many and return the dataset of docs/reference/dataset.md.
 
@@ -562,19 +574,25 @@ def simulate(scenes) -> xr.Dataset:
     data["message"] = np.array([m for *_, (msgs, _) in solved for m in msgs], dtype=object)[order]
     if "peak_stress" in data and any(s["outputs"]["error_estimate"] for s in normalized):
         known, floors = _auto_estimates(reports, data.get("spectral_tail"), data["status"])
-        data["error_estimate"] = error_estimates(
-            normalized, _case_peak(data["peak_stress"]),
-            (data["status"] & STATUS_FLAGS["failed"]) > 0,
-            lambda: _first_frequency(solved, data, order),
-            np.concatenate([b.step_size for b in batches])[order],
-            lambda companions, guesses: _peaks(companions, True, guesses)["peak"],
-            known=known,
-            spectral_tail=data.get("spectral_tail"),
-            collocation_points=data.get("collocation_points"),
-            guesses=None if samples is None else [
-                g if isinstance(g, np.ndarray) else None for g in samples])
+        peak = _case_peak(data["peak_stress"])
+        failed = (data["status"] & STATUS_FLAGS["failed"]) > 0
+        step_size = np.concatenate([b.step_size for b in batches])[order]
+        guesses = None if samples is None else [
+            g if isinstance(g, np.ndarray) else None for g in samples]
+
+        def estimate(given: dict[int, float]) -> np.ndarray:
+            return error_estimates(
+                normalized, peak, failed, lambda: _first_frequency(solved, data, order),
+                step_size, lambda companions, starts: _peaks(companions, True, starts)["peak"],
+                known=given, spectral_tail=data.get("spectral_tail"),
+                collocation_points=data.get("collocation_points"), guesses=guesses)
+
+        data["error_estimate"], interpolated = sweep_estimates(
+            normalized, data["status"], known, estimate)
         for i, floor in floors.items():  # NaN (a failed case) stays NaN
             data["error_estimate"][i] = np.maximum(data["error_estimate"][i], floor)
+        data["error_estimate_source"] = _estimate_source(
+            data["error_estimate"], known, interpolated)
     if auto_discretization is not None:
         data["discretization_auto"] = np.array(auto_discretization, dtype=object)
         estimate = data.get("error_estimate")

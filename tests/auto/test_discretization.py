@@ -14,7 +14,7 @@ from ced.auto.discretization import (_ELEMENTS, FIRST_STEPS, INTERPOLATION_MARGI
                                      PERIODIC_STRIDE,
                                      RESONANT_HARMONICS, SAFETY, SERIES_FULL_POINTS,
                                      SERIES_SHARE, _full_cost, _reduced_cost, choose_shared,
-                                     _pilot_key, _sweep_key, bracket, choose, cost, interpolate,
+                                     _pilot_key, sweep_key, bracket, choose, cost, interpolate,
                                      interpolated_error, ladder_errors, predicted_error,
                                      representatives,
                                      resolve_discretization, sweeps, unverified)
@@ -407,7 +407,7 @@ def test_sweeps_group_cases_that_differ_only_in_speed():
     longer = reference_raw(discretization="auto", tolerance=1e-2)
     longer["mechanism"] = {**longer["mechanism"], "coupler": 0.46}
     scenes.append(load_scene(longer))
-    groups = sweeps([_sweep_key(s) for s in scenes], [s["drive"]["speed"] for s in scenes])
+    groups = sweeps([sweep_key(s) for s in scenes], [s["drive"]["speed"] for s in scenes])
     assert [g.tolist() for g in groups] == [[1, 2, 0], [3], [4]]
 
 
@@ -415,15 +415,15 @@ def test_pilot_keys_ignore_the_name_and_tell_speeds_and_values_apart():
     a, b, c = speed_sweep([100.0, 100.0, 110.0])
     b = {**b, "name": "another"}
     assert _pilot_key(a) == _pilot_key(b)
-    assert _sweep_key(a) == _sweep_key(c) and _pilot_key(a) != _pilot_key(c)
+    assert sweep_key(a) == sweep_key(c) and _pilot_key(a) != _pilot_key(c)
     stiffer = copy.deepcopy(a)
     stiffer["links"]["coupler"]["material"]["E"] *= 1.0 + 1e-15
-    assert _sweep_key(stiffer) != _sweep_key(a)
+    assert sweep_key(stiffer) != sweep_key(a)
     # A value marshal does not write (a dict subclass) is keyed by its canonical JSON: equal
     # scenes still share a key.
     odd = {**a, "drive": OrderedDict(a["drive"])}
     assert _pilot_key(odd) == _pilot_key({**b, "drive": OrderedDict(b["drive"])})
-    assert _sweep_key(odd) != _sweep_key(stiffer)
+    assert sweep_key(odd) != sweep_key(stiffer)
 
 
 @given(n=st.integers(1, 300), stride=st.integers(1, 40))

@@ -1,0 +1,168 @@
+"""``error_estimate`` shared along a speed sweep from a start transient.
+
+From a start transient (``undeformed``, ``quasi_static``) a case's estimate needs two
+companion solutions, one of them at twice its steps (:mod:`ced.auto.error_estimate`): about
+three times the cost of the case itself. A sweep's cases that differ only in their drive
+speed share them as ``discretization: auto`` shares its pilots (:mod:`ced.auto.discretization`,
+stage 5): every :data:`STRIDE`-th case in the order of speed and the last solve their
+companions ("climbers"), and a case between two climbers is estimated at
+:data:`MARGIN` × the larger of their estimates (:func:`ced.auto.discretization.
+interpolated_error`). The rule is checked where it can fail, and where it is not trusted the
+middle case of the gap solves its own companions (bisection, until every gap is trusted or has
+no case left in it):
+
+* at every inner climber, leave-one-out: its own estimate above the rule's prediction from its
+  climbing neighbours (the estimate varies faster in speed than the climbers resolve);
+* where a gap spans more than :data:`MAX_GAP` of its lower climber's speed (what was measured);
+* next to a climber with no estimate (its companions failed).
+
+A case flagged as one whose error its neighbours cannot bound (:data:`OWN_FLAGS`: near a
+toggle or change point, resonant, parametrically unstable, buckled, failed) solves its own.
+So do sweeps of fewer than :data:`MIN_CASES` cases, periodic starts (a resonance of the
+steady state is narrower than the climbers' spacing and need not be flagged: on the reference
+four-bar's undamped 40–160 rad/s series sweep, two unflagged cases between climbers erred 1.4
+and 3.2 % where their neighbours' estimates said 0.05–0.1 %), and the cases
+``discretization: auto`` resolved (their ladders are their estimate).
+
+Measured (2026-11-29, every case's own estimate and its true error against the converged value
+of ``benchmarks/sweep.py``; ``benchmarks/estimate_sharing.py``): on the benchmark's 100 speeds
+(90–110 rad/s) at seven settings from 4 elements at 256 steps per revolution to 16 at 1,024,
+14 climbers, no leave-one-out failure, and every case's true error within its shared
+estimate (as within its own); over 40–160 rad/s on the reference four-bar and over 15–45
+rad/s on Sung and Thompson's crank-rocker (coupler and rocker flexible), about half of the
+cases are flagged ``resonant`` and solve their own, and no shared estimate is below its true
+error where the own estimate was not. The shared estimates are looser than the own, by about
+twice at the median.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..problem.status import STATUS_FLAGS
+from .discretization import (STRIDE, sweep_key, bracket, interpolated_error,
+                             representatives, sweeps, unverified)
+
+__all__ = ["sweep_estimates", "shared_sweeps", "STRIDE", "MARGIN", "MIN_CASES", "MAX_GAP",
+           "OWN_FLAGS"]
+
+#: A case between two climbers is estimated at MARGIN × the larger of their estimates. Less
+#: than ``discretization: auto``'s :data:`~ced.auto.discretization.INTERPOLATION_MARGIN` (3),
+#: which covers a prediction with no safety factor of its own: an estimate carries
+#: :data:`ced.auto.error_estimate.SAFETY` (4) already. Measured on 13 sweeps × settings
+#: (module docstring): at 1.5 every true error of a case between climbers was at most 0.73 of
+#: its shared estimate, the shared estimates 1.4–2.2 times the case's own at the median; at 3,
+#: 3.1–4.6 times; at 1, leave-one-out failed at a third to three quarters of the speeds.
+MARGIN = 1.5
+#: Fewest cases of a sweep that share: three climbers, so that leave-one-out can check one.
+MIN_CASES = 2 * STRIDE + 1
+#: Widest gap between two climbers, relative to the lower one's speed: the measured sweeps'
+#: gaps reached 24 % at :data:`STRIDE` (40–160 rad/s, 100 speeds).
+MAX_GAP = 0.25
+#: Status flags of a case that solves its own companions: its error need not be like its
+#: neighbours' in speed. Not ``resonant``: over two revolutions from rest a resonance builds
+#: up over a band of speeds wider than the climbers' spacing (the measured sweeps are
+#: 40–50 % ``resonant``, and no shared estimate of such a case was below its true error).
+OWN_FLAGS = (STATUS_FLAGS["near_singular"] | STATUS_FLAGS["parametrically_unstable"]
+             | STATUS_FLAGS["buckled"] | STATUS_FLAGS["failed"]
+             | STATUS_FLAGS["not_assemblable"])
+
+
+def shared_sweeps(scenes: list[dict], status: np.ndarray, known) -> list[np.ndarray]:
+    """The sweeps whose cases may share their companions.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes of the run.
+    status : (case,) int array
+        Each case's status flags.
+    known : collection of int
+        Cases that have their estimate already (``discretization: auto``).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Per sweep its cases (indices into ``scenes``) by increasing speed; only sweeps of at
+        least :data:`MIN_CASES` cases of distinct speeds that ask for an estimate, start from
+        a transient, are not resolved by ``discretization: auto`` and carry none of
+        :data:`OWN_FLAGS`.
+    """
+    eligible = [i for i, s in enumerate(scenes)
+                if s["outputs"]["error_estimate"] and i not in known
+                and isinstance(s["discretization"], dict)
+                and s["discretization"]["formulation"] != "rigid"
+                and s["time"]["start"] != "periodic" and not int(status[i]) & OWN_FLAGS]
+    if len(eligible) < MIN_CASES:
+        return []
+    speeds = np.array([scenes[i]["drive"]["speed"] for i in eligible], float)
+    groups = sweeps([sweep_key(scenes[i]) for i in eligible], speeds)
+    # Repeated speeds (a batch of identical cases) are no sweep: a case between two equal
+    # climbers would be estimated at three times their estimate.
+    return [np.asarray(eligible)[g] for g in groups
+            if len(g) >= MIN_CASES and len(np.unique(speeds[g])) == len(g)]
+
+
+def _untrusted(speeds: np.ndarray, climbed: list[int], errors: np.ndarray) -> set[int]:
+    """Positions of a sweep to climb next: leave-one-out failures and gaps too wide in speed
+    or next to a climber without an estimate, each gap's middle."""
+    finite = np.isfinite(errors)
+    out = set(unverified(climbed, np.where(finite, errors, 0.0), np.zeros(len(climbed)),
+                         np.zeros(len(speeds)), np.inf, MARGIN).tolist())
+    for k, (low, high) in enumerate(zip(climbed[:-1], climbed[1:])):
+        wide = speeds[high] - speeds[low] > MAX_GAP * abs(speeds[low])
+        if high - low >= 2 and (wide or not (finite[k] and finite[k + 1])):
+            out.add((low + high) // 2)
+    return out
+
+
+def sweep_estimates(scenes: list[dict], status: np.ndarray, known: dict[int, float],
+                    estimate: Callable[[dict[int, float]], np.ndarray]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """``error_estimate`` of every case, companions shared along speed sweeps.
+
+    Parameters
+    ----------
+    scenes : list of dict
+        Normalized scenes of the run.
+    status : (case,) int array
+        Each case's status flags.
+    known : dict
+        Case → estimate of cases that have one already (``discretization: auto``).
+    estimate : callable
+        known (case → value) → (case,) estimates, solving the companions of every case that
+        asks for one and is not in ``known``
+        (:func:`ced.auto.error_estimate.error_estimates`).
+
+    Returns
+    -------
+    estimate : (case,) array
+        As :func:`ced.auto.error_estimate.error_estimates` returns it.
+    interpolated : (case,) bool array
+        Cases estimated from their neighbours in speed, with no companion of their own.
+    """
+    groups = shared_sweeps(scenes, status, known)
+    speeds = [np.array([scenes[i]["drive"]["speed"] for i in g], float) for g in groups]
+    climbed = [set(representatives(len(g), STRIDE).tolist()) for g in groups]
+    solved = dict(known)
+    while True:
+        waiting = {int(g[p]): np.nan for g, c in zip(groups, climbed)
+                   for p in range(len(g)) if p not in c}
+        out = estimate({**solved, **waiting})
+        solved.update({i: float(out[i]) for i in range(len(scenes)) if i not in waiting})
+        more = [_untrusted(v, sorted(c), out[g[sorted(c)]]) - c
+                for g, v, c in zip(groups, speeds, climbed)]
+        if not any(more):
+            break
+        for c, m in zip(climbed, more):
+            c.update(m)
+    interpolated = np.zeros(len(scenes), bool)
+    for g, c in zip(groups, climbed):
+        at = sorted(c)
+        below, above = bracket(at, len(g))
+        for p in range(len(g)):
+            if p not in c:
+                out[g[p]] = interpolated_error(out[g[[below[p], above[p]]]], margin=MARGIN)
+                interpolated[g[p]] = True
+    return out, interpolated
