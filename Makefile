@@ -52,6 +52,7 @@ bench: $(STAMP) bench-memory
 	$(BIN)/python benchmarks/six_bar_cost.py
 	$(BIN)/python benchmarks/peer/linkages.py
 	$(BIN)/python benchmarks/estimate_honesty.py
+	$(BIN)/python benchmarks/estimate_sharing.py
 	$(BIN)/python benchmarks/study_estimate_check.py
 	$(BIN)/python benchmarks/auto_pilots.py
 	$(BIN)/python benchmarks/auto_series_check.py

@@ -1,0 +1,139 @@
+"""Is ``error_estimate`` still an upper bound when a speed sweep shares its companions?
+
+From a start transient a case's estimate takes two companion solutions, one at twice its
+steps (``ced.auto.error_estimate``); a sweep of 17 or more speeds solves them for every 8th
+case and bounds the others by 1.5 × the larger estimate of their two neighbours that did
+(``ced.auto.sweep_estimate``). This runs three sweeps of 100 speeds, two revolutions from the
+undeformed state, each at settings from coarse to fine, twice in the same run: every case
+solving its own companions (sharing switched off) and shared (the default). Against each
+sweep's converged value it reports, per setting: the cases that solved companions, the share
+of speeds whose true error of peak stress is at most the estimate (shared and own), how often
+a shared estimate is below the case's own, the median of shared / own and of estimate / true,
+and the largest true error / shared estimate of a case between climbers.
+
+* the benchmark's sweep (``sweep.py``: reference flexible four-bar, 90–110 rad/s) against
+  its converged value (32 elements of every FE DOF, 32,768 steps per revolution);
+* the same four-bar over 40–160 rad/s, against the same converged setting;
+* Sung and Thompson's crank-rocker (``config/scenes/sung_thompson.yaml``: coupler and rocker
+  flexible) over 15–45 rad/s, against 16 elements at 8,192 steps per revolution, itself
+  checked against 32 elements at 16,384 at every 20th speed (``reference_check``).
+
+Results go to ``benchmarks/estimate_sharing.json``; docs/accuracy.md quotes them. Run
+``.venv/bin/python benchmarks/estimate_sharing.py`` (about five minutes on one core).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import sweep  # noqa: F401  (imports single_thread: one BLAS thread, before numpy)
+
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+
+from ced.auto import sweep_estimate  # noqa: E402
+from ced.simulation.dataset import ESTIMATE_SOURCES  # noqa: E402
+from ced.simulation.simulate import _case_peak, simulate  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+OUT = HERE / "estimate_sharing.json"
+SHARED_MIN_CASES = sweep_estimate.MIN_CASES
+#: Speeds of a converged value solved at once (its histories at every step are large).
+CHUNK = 10
+
+
+def _sung_thompson() -> dict:
+    raw = yaml.safe_load((HERE.parent / "config/scenes/sung_thompson.yaml").read_text())
+    raw.pop("modal")
+    raw["outputs"] = {"stations": 11, "every": 1}
+    return raw
+
+
+#: (name, base scene, speeds (rad/s), converged (elements, modes, steps), settings).
+SWEEPS = [
+    ("reference four-bar, 90-110 rad/s", sweep.REFERENCE_SCENE, np.linspace(90.0, 110.0, 100),
+     sweep.CONVERGED, [(4, 0, 256), (8, 0, 512), (8, 8, 1280)]),
+    ("reference four-bar, 40-160 rad/s", sweep.REFERENCE_SCENE, np.linspace(40.0, 160.0, 100),
+     sweep.CONVERGED, [(8, 0, 512), (8, 4, 1024), (8, 8, 1280)]),
+    ("Sung-Thompson crank-rocker, 15-45 rad/s", _sung_thompson(), np.linspace(15.0, 45.0, 100),
+     (16, 0, 8192), [(6, 0, 256), (8, 4, 512), (8, 4, 1024)]),
+]
+
+
+def scenes(base: dict, speeds, setting: tuple, estimate: bool) -> list[dict]:
+    elements, modes, steps = setting
+    return [{**base, "drive": {**base.get("drive", {}), "speed": float(v)},
+             "outputs": {**base["outputs"], "error_estimate": estimate},
+             "discretization": {**base.get("discretization", {}),
+                                "elements_per_link": elements, "modes_per_link": modes},
+             "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "undeformed"}}
+            for v in speeds]
+
+
+def peak_stress(base: dict, speeds, setting: tuple) -> np.ndarray:
+    """Peak stress (Pa, over the links) at every speed, a few speeds at a time, the histories
+    stored at every 64th step only (the peaks are over every step)."""
+    thin = {**base, "outputs": {**base["outputs"], "every": 64}}
+    return np.concatenate([
+        _case_peak(simulate(scenes(thin, speeds[i:i + CHUNK], setting, False))
+                   .peak_stress.values) for i in range(0, len(speeds), CHUNK)])
+
+
+def estimated(base: dict, speeds, setting: tuple, shared: bool):
+    """Peak stress, estimate and estimate source at every speed, one call."""
+    sweep_estimate.MIN_CASES = SHARED_MIN_CASES if shared else 10**9
+    try:
+        ds = simulate(scenes(base, speeds, setting, True))
+    finally:
+        sweep_estimate.MIN_CASES = SHARED_MIN_CASES
+    return (_case_peak(ds.peak_stress.values), ds.error_estimate.values,
+            ds.error_estimate_source.values)
+
+
+def main() -> None:
+    rows = []
+    for name, base, speeds, converged, settings in SWEEPS:
+        reference = peak_stress(base, speeds, converged)
+        check = None
+        if converged != sweep.CONVERGED:
+            finer = (2 * converged[0], 0, 2 * converged[2])
+            at = speeds[::20]
+            difference = np.abs(reference[::20] / peak_stress(base, at, finer) - 1.0)
+            check = {"setting": list(finer), "speeds": at.tolist(),
+                     "max_difference": float(difference.max())}
+        for setting in settings:
+            peak, own, _ = estimated(base, speeds, setting, shared=False)
+            peak_shared, shared, source = estimated(base, speeds, setting, shared=True)
+            assert np.array_equal(peak, peak_shared)
+            true = np.abs(peak / reference - 1.0)
+            between = source == ESTIMATE_SOURCES["sweep_neighbours"]
+            row = {"sweep": name, "setting": list(setting), "converged": list(converged),
+                   "reference_check": check,
+                   "cases_with_companions": int((source == ESTIMATE_SOURCES["companions"]).sum()),
+                   "max_true_error": float(true.max()),
+                   "upper_bound_share_shared": float(np.mean(true <= shared)),
+                   "upper_bound_share_own": float(np.mean(true <= own)),
+                   "shared_below_own_share": float(np.mean(shared[between] < own[between])),
+                   "median_shared_over_own": float(np.median(shared[between] / own[between])),
+                   "median_estimate_over_true_shared": float(np.median(shared / true)),
+                   "median_estimate_over_true_own": float(np.median(own / true)),
+                   "worst_true_over_shared_between": float(np.max(true[between]
+                                                                  / shared[between]))}
+            rows.append(row)
+            print(f"{name} {setting}: {row['cases_with_companions']} cases with companions; "
+                  f"true ≤ estimate at {row['upper_bound_share_shared']:.0%} shared, "
+                  f"{row['upper_bound_share_own']:.0%} own; shared/own median "
+                  f"{row['median_shared_over_own']:.2f}; worst true/shared "
+                  f"{row['worst_true_over_shared_between']:.2f}", flush=True)
+    OUT.write_text(json.dumps({
+        "problem": "three sweeps of 100 speeds, two revolutions from the undeformed state; "
+                   "error_estimate of peak stress with companions shared along the sweep "
+                   "against every case's own",
+        "stride": sweep_estimate.STRIDE, "margin": sweep_estimate.MARGIN,
+        "min_cases": SHARED_MIN_CASES, "max_gap": sweep_estimate.MAX_GAP,
+        "settings": rows}, indent=2) + "\n")
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()
