@@ -3,7 +3,7 @@
 From a start transient a case's estimate takes two companion solutions, one at twice its
 steps (``ced.auto.error_estimate``); a sweep of 17 or more speeds solves them for every 8th
 case and bounds the others by 1.5 × the larger estimate of their two neighbours that did
-(``ced.auto.sweep_estimate``). This runs three sweeps of 100 speeds, two revolutions from the
+(``ced.auto.sweep_estimate``). This runs five sweeps of 100 speeds, two revolutions from the
 undeformed state, each at settings from coarse to fine, twice in the same run: every case
 solving its own companions (sharing switched off) and shared (the default). Against each
 sweep's converged value it reports, per setting: the cases that solved companions, the share
@@ -16,10 +16,14 @@ and the largest true error / shared estimate of a case between climbers.
 * the same four-bar over 40–160 rad/s, against the same converged setting;
 * Sung and Thompson's crank-rocker (``config/scenes/sung_thompson.yaml``: coupler and rocker
   flexible) over 15–45 rad/s, against 16 elements at 8,192 steps per revolution, itself
-  checked against 32 elements at 16,384 at every 20th speed (``reference_check``).
+  checked against 32 elements at 16,384 at every 20th speed (``reference_check``);
+* after the margin was chosen on those three, two more to test it: the in-line slider-crank
+  of ``config/scenes/slider_crank.yaml`` with its rod flexible over 100–250 rad/s, and the
+  reference four-bar with every link flexible over 60–120 rad/s, each against 16 elements at
+  8,192 steps (checked against 32 elements at 16,384, and against 16,384 steps).
 
 Results go to ``benchmarks/estimate_sharing.json``; docs/accuracy.md quotes them. Run
-``.venv/bin/python benchmarks/estimate_sharing.py`` (about five minutes on one core).
+``.venv/bin/python benchmarks/estimate_sharing.py`` (about twelve minutes on one core).
 """
 from __future__ import annotations
 
@@ -49,14 +53,37 @@ def _sung_thompson() -> dict:
     return raw
 
 
-#: (name, base scene, speeds (rad/s), converged (elements, modes, steps), settings).
+def _slider_crank() -> dict:
+    raw = yaml.safe_load((HERE.parent / "config/scenes/slider_crank.yaml").read_text())
+    raw.pop("discretization")  # the scene is rigid; its rod is flexible here
+    raw["effects"] = ["inertia", "elastic_inertia", "coriolis", "centrifugal",
+                      "axial_stiffening"]
+    raw["outputs"] = {"stations": 11, "every": 1}
+    return raw
+
+
+#: The reference four-bar with crank, coupler and rocker flexible: its modes move over the
+#: cycle, and its estimates vary by 20 times between neighbouring speeds.
+EVERY_LINK_FLEXIBLE = {**sweep.REFERENCE_SCENE,
+                       "links": {"default": sweep.REFERENCE_SCENE["links"]["default"]}}
+
+#: (name, base scene, speeds (rad/s), converged (elements, modes, steps), its check (None:
+#: ``run.py`` checks it) and the speeds solved at once there, settings). The first three
+#: chose the margin; the slider-crank and the every-link-flexible four-bar came after, to test
+#: it.
 SWEEPS = [
     ("reference four-bar, 90-110 rad/s", sweep.REFERENCE_SCENE, np.linspace(90.0, 110.0, 100),
-     sweep.CONVERGED, [(4, 0, 256), (8, 0, 512), (8, 8, 1280)]),
+     sweep.CONVERGED, None, [(4, 0, 256), (8, 0, 512), (8, 8, 1280)]),
     ("reference four-bar, 40-160 rad/s", sweep.REFERENCE_SCENE, np.linspace(40.0, 160.0, 100),
-     sweep.CONVERGED, [(8, 0, 512), (8, 4, 1024), (8, 8, 1280)]),
+     sweep.CONVERGED, None, [(8, 0, 512), (8, 4, 1024), (8, 8, 1280)]),
     ("Sung-Thompson crank-rocker, 15-45 rad/s", _sung_thompson(), np.linspace(15.0, 45.0, 100),
-     (16, 0, 8192), [(6, 0, 256), (8, 4, 512), (8, 4, 1024)]),
+     (16, 0, 8192), ((32, 0, 16384), CHUNK), [(6, 0, 256), (8, 4, 512), (8, 4, 1024)]),
+    ("slider-crank, rod flexible, 100-250 rad/s", _slider_crank(),
+     np.linspace(100.0, 250.0, 100), (16, 0, 8192), ((32, 0, 16384), CHUNK),
+     [(6, 0, 384), (8, 4, 512)]),
+    ("reference four-bar, every link flexible, 60-120 rad/s", EVERY_LINK_FLEXIBLE,
+     np.linspace(60.0, 120.0, 100), (16, 0, 8192), ((16, 0, 16384), 1),
+     [(6, 0, 384), (8, 4, 512)]),
 ]
 
 
@@ -70,13 +97,13 @@ def scenes(base: dict, speeds, setting: tuple, estimate: bool) -> list[dict]:
             for v in speeds]
 
 
-def peak_stress(base: dict, speeds, setting: tuple) -> np.ndarray:
-    """Peak stress (Pa, over the links) at every speed, a few speeds at a time, the histories
-    stored at every 64th step only (the peaks are over every step)."""
+def peak_stress(base: dict, speeds, setting: tuple, chunk: int = CHUNK) -> np.ndarray:
+    """Peak stress (Pa, over the links) at every speed, ``chunk`` speeds at a time, the
+    histories stored at every 64th step only (the peaks are over every step)."""
     thin = {**base, "outputs": {**base["outputs"], "every": 64}}
     return np.concatenate([
-        _case_peak(simulate(scenes(thin, speeds[i:i + CHUNK], setting, False))
-                   .peak_stress.values) for i in range(0, len(speeds), CHUNK)])
+        _case_peak(simulate(scenes(thin, speeds[i:i + chunk], setting, False))
+                   .peak_stress.values) for i in range(0, len(speeds), chunk)])
 
 
 def estimated(base: dict, speeds, setting: tuple, shared: bool):
@@ -92,13 +119,13 @@ def estimated(base: dict, speeds, setting: tuple, shared: bool):
 
 def main() -> None:
     rows = []
-    for name, base, speeds, converged, settings in SWEEPS:
+    for name, base, speeds, converged, checked, settings in SWEEPS:
         reference = peak_stress(base, speeds, converged)
         check = None
-        if converged != sweep.CONVERGED:
-            finer = (2 * converged[0], 0, 2 * converged[2])
+        if checked is not None:
+            finer, chunk = checked
             at = speeds[::20]
-            difference = np.abs(reference[::20] / peak_stress(base, at, finer) - 1.0)
+            difference = np.abs(reference[::20] / peak_stress(base, at, finer, chunk) - 1.0)
             check = {"setting": list(finer), "speeds": at.tolist(),
                      "max_difference": float(difference.max())}
         for setting in settings:
@@ -126,7 +153,7 @@ def main() -> None:
                   f"{row['median_shared_over_own']:.2f}; worst true/shared "
                   f"{row['worst_true_over_shared_between']:.2f}", flush=True)
     OUT.write_text(json.dumps({
-        "problem": "three sweeps of 100 speeds, two revolutions from the undeformed state; "
+        "problem": "five sweeps of 100 speeds, two revolutions from the undeformed state; "
                    "error_estimate of peak stress with companions shared along the sweep "
                    "against every case's own",
         "stride": sweep_estimate.STRIDE, "margin": sweep_estimate.MARGIN,

@@ -690,7 +690,18 @@ def sweep_key(scene: dict) -> bytes:
     speed. :mod:`marshal`'s bytes, as :func:`ced.response.model_cache.model_key`'s: equal
     bytes are equal scenes, and a scene holding a value differently (another key order, 1
     against 1.0) only climbs its own ladders. A fifth of the canonical JSON's time
-    (:func:`ced.problem.scene.dump_scene`), which was 8 % of the pilots of a 100-speed sweep."""
+    (:func:`ced.problem.scene.dump_scene`), which was 8 % of the pilots of a 100-speed sweep.
+
+    Parameters
+    ----------
+    scene : dict
+        A normalized scene (:func:`ced.problem.scene.load_scene`).
+
+    Returns
+    -------
+    bytes
+        Equal for scenes of one sweep in speed (:func:`sweeps`).
+    """
     drive = {k: v for k, v in scene["drive"].items() if k != "speed"}
     try:
         return marshal.dumps({**scene, "name": "", "drive": drive}, 2)
