@@ -498,8 +498,7 @@ def _estimate_source(estimate: np.ndarray, known: dict[int, float],
                      interpolated: np.ndarray) -> np.ndarray:
     """Where each case's ``error_estimate`` comes from (``error_estimate_source``'s flag
     values, :data:`ced.simulation.dataset.ESTIMATE_SOURCES`)."""
-    source = np.where(np.isnan(estimate), ESTIMATE_SOURCES["none"],
-                      ESTIMATE_SOURCES["companions"])
+    source = np.full(len(estimate), ESTIMATE_SOURCES["companions"])
     source[list(known)] = ESTIMATE_SOURCES["discretization_auto"]
     source[interpolated] = ESTIMATE_SOURCES["sweep_neighbours"]
     return np.where(np.isnan(estimate), ESTIMATE_SOURCES["none"], source).astype("int8")

@@ -203,3 +203,13 @@ def test_the_resonance_search_knows_the_spectra_of_one_turn_motions_only():
     # the mean frozen frequencies barely move with speed; the first is the 4:1 resonance's
     np.testing.assert_allclose(spectra[0][0], spectra[2][0], rtol=2e-3)
     assert 4 * 90.0 < spectra[0][0][0] < 4 * 92.0
+
+
+def test_the_estimate_source_names_where_each_estimate_came_from():
+    from ced.simulation.dataset import ESTIMATE_SOURCES
+    from ced.simulation.simulate import _estimate_source
+    estimate = np.array([0.01, np.nan, 0.02, 0.03, np.nan])
+    source = _estimate_source(estimate, {2: 0.02, 4: np.nan},
+                              np.array([False, False, False, True, False]))
+    assert [list(ESTIMATE_SOURCES)[s] for s in source] == [
+        "companions", "none", "discretization_auto", "sweep_neighbours", "none"]
