@@ -26,15 +26,15 @@ and 3.2 % where their neighbours' estimates said 0.05–0.1 %), and the cases
 ``discretization: auto`` resolved (their ladders are their estimate).
 
 Measured (2026-11-29, ``benchmarks/estimate_sharing.py``: every case's own estimate, the
-shared one and the true error against a converged value, five sweeps of 100 speeds from rest).
-On the three the margin was chosen on — the benchmark's reference four-bar over 90–110 rad/s
-(14 cases solve companions, no leave-one-out failure) and over 40–160, Sung and Thompson's
-crank-rocker over 15–45 — the true error is within the shared estimate at 99–100 % of the
-speeds, as within the own (98–100 %). On the two that came after: the slider-crank, 100 %;
-the four-bar with every link flexible, whose estimates vary by 20 times between neighbouring
-speeds, 98–99 % against 99–100 % for the own: one case between climbers at each of two
-settings erred 2.1 and 1.14 times its shared estimate. The shared estimates are looser than
-the own, 1.4–4 times at the median.
+shared one and the true error against a converged value, five sweeps of 100 speeds from rest,
+2 or 3 settings each, the estimates' safety factor 2.5). On the three the margin was chosen on
+— the benchmark's reference four-bar over 90–110 rad/s (14 cases solve companions, no
+leave-one-out failure) and over 40–160, Sung and Thompson's crank-rocker over 15–45 — the
+true error is within the shared estimate at 96–100 % of the speeds (own: 95–100 %). On the two
+that came after: the slider-crank, 100 % (own 96–98 %); the four-bar with every link flexible,
+whose estimates vary by 20 times between neighbouring speeds, 96–98 % (own 98–99 %), the
+worst case between climbers 3.4 times its shared estimate. The shared estimates are 1.4–3.3
+times the case's own at the median.
 """
 from __future__ import annotations
 
@@ -52,11 +52,11 @@ __all__ = ["sweep_estimates", "shared_sweeps", "STRIDE", "MARGIN", "MIN_CASES", 
 #: A case between two climbers is estimated at MARGIN × the larger of their estimates. Less
 #: than ``discretization: auto``'s :data:`~ced.auto.discretization.INTERPOLATION_MARGIN` (3),
 #: which covers a prediction with no safety factor of its own: an estimate carries
-#: :data:`ced.auto.error_estimate.SAFETY` (4) already. Chosen on the first three sweeps of
-#: the module docstring (13 sweep × setting pairs): at 1.5 every true error of a case between
-#: climbers was at most 0.73 of its shared estimate, the shared estimates 1.4–2.2 times the
-#: case's own at the median; at 3, 3.1–4.6 times; at 1, bisection had a quarter to three
-#: quarters of the cases solve companions.
+#: :data:`ced.auto.error_estimate.SAFETY` (2.5) already. Chosen on the first three sweeps of
+#: the module docstring (13 sweep × setting pairs, the safety factor then 4): at 1.5 every true
+#: error of a case between climbers was at most 0.73 of its shared estimate, the shared
+#: estimates 1.4–2.2 times the case's own at the median; at 3, 3.1–4.6 times; at 1, bisection
+#: had a quarter to three quarters of the cases solve companions.
 MARGIN = 1.5
 #: Fewest cases of a sweep that share: three climbers, so that leave-one-out can check one.
 MIN_CASES = 2 * STRIDE + 1
@@ -67,8 +67,8 @@ MAX_GAP = 0.25
 #: neighbours' in speed. Not ``resonant``: over two revolutions from rest a resonance builds
 #: up over a band of speeds wider than the climbers' spacing, and the flag marks 40–85 % of the
 #: measured sweeps' cases (44 of the benchmark's 100), which would all pay their companions.
-#: The two shared estimates below their true error (the every-link-flexible four-bar) were
-#: such cases.
+#: Three of the four shared estimates below their true error (the every-link-flexible
+#: four-bar, module docstring) were such cases.
 OWN_FLAGS = (STATUS_FLAGS["near_singular"] | STATUS_FLAGS["parametrically_unstable"]
              | STATUS_FLAGS["buckled"] | STATUS_FLAGS["failed"]
              | STATUS_FLAGS["not_assemblable"])
