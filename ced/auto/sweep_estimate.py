@@ -84,7 +84,8 @@ def shared_sweeps(scenes: list[dict], status: np.ndarray, known) -> list[np.ndar
     status : (case,) int array
         Each case's status flags.
     known : collection of int
-        Cases that have their estimate already (``discretization: auto``).
+        Cases that do not share: those with their estimate already, and those whose
+        companions must be their own (``discretization: auto``'s).
 
     Returns
     -------
@@ -123,7 +124,7 @@ def _untrusted(speeds: np.ndarray, climbed: list[int], errors: np.ndarray) -> se
 
 
 def sweep_estimates(scenes: list[dict], status: np.ndarray, known: dict[int, float],
-                    estimate: Callable[[dict[int, float]], np.ndarray]
+                    estimate: Callable[[dict[int, float]], np.ndarray], alone=()
                     ) -> tuple[np.ndarray, np.ndarray]:
     """``error_estimate`` of every case, companions shared along speed sweeps.
 
@@ -139,6 +140,10 @@ def sweep_estimates(scenes: list[dict], status: np.ndarray, known: dict[int, flo
         known (case → value) → (case,) estimates, solving the companions of every case that
         asks for one and is not in ``known``
         (:func:`ced.auto.error_estimate.error_estimates`).
+    alone : collection of int
+        Cases that solve their own companions whatever their sweep (those of
+        ``discretization: auto`` whose prediction is a floor under them: outside what was
+        measured).
 
     Returns
     -------
@@ -147,7 +152,7 @@ def sweep_estimates(scenes: list[dict], status: np.ndarray, known: dict[int, flo
     interpolated : (case,) bool array
         Cases estimated from their neighbours in speed, with no companion of their own.
     """
-    groups = shared_sweeps(scenes, status, known)
+    groups = shared_sweeps(scenes, status, set(known) | set(alone))
     speeds = [np.array([scenes[i]["drive"]["speed"] for i in g], float) for g in groups]
     climbed = [set(representatives(len(g), STRIDE).tolist()) for g in groups]
     solved = dict(known)

@@ -587,7 +587,7 @@ def simulate(scenes) -> xr.Dataset:
                 collocation_points=data.get("collocation_points"), guesses=guesses)
 
         data["error_estimate"], interpolated = sweep_estimates(
-            normalized, data["status"], known, estimate)
+            normalized, data["status"], known, estimate, alone=floors)
         for i, floor in floors.items():  # NaN (a failed case) stays NaN
             data["error_estimate"][i] = np.maximum(data["error_estimate"][i], floor)
         data["error_estimate_source"] = _estimate_source(

@@ -83,6 +83,11 @@ def test_cases_that_cannot_share_solve_their_own():
     known = {i: 0.02 for i in range(40)}
     out, interpolated, solved = _run(_scenes(speeds), own, known=known)
     assert not solved and not interpolated.any() and (out == 0.02).all()
+    # auto's cases whose prediction is a floor under their companions: their own too
+    companions = Companions(own)
+    _, interpolated = sweep_estimates(_scenes(speeds), np.zeros(40, int), {}, companions,
+                                      alone=range(40))
+    assert companions.solved == set(range(40)) and not interpolated.any()
 
 
 def test_gaps_wider_than_measured_are_bisected_until_no_case_is_left_in_them():
