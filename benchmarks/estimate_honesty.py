@@ -3,10 +3,10 @@
 The convergence study (``config/studies/convergence.yaml``) validates the estimate in the
 periodic steady state only. This checks it where free vibrations ring: the benchmark's sweep
 (reference flexible four-bar, undeformed start, two revolutions, no damping; all 100 of its
-speeds, every 5th until 2026-11-29), at settings from coarse to fine, against ced's converged value of
-``run.py`` (:data:`sweep.CONVERGED`: 32 elements of every FE DOF at 32,768 steps per
-revolution; 16 elements at 16,384 steps until 2026-11-29 evening, themselves up to a few
-tenths of a percent off in space and time). For each setting: the largest true error of peak
+speeds, every 5th until 2026-11-29), at settings from coarse to fine, against ced's
+converged value of ``run.py`` (:data:`sweep.CONVERGED`: 32 elements of every FE DOF at 32,768
+steps per revolution; 16 elements at 16,384 steps until 2026-11-29 evening, themselves up to a
+few tenths of a percent off in space and time). For each setting: the largest true error of peak
 stress, the share of speeds whose true error is at most the estimate, and the median
 estimate / true.
 Every case solves its own companions here (the sweep would share them otherwise,
