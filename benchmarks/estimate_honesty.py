@@ -9,8 +9,8 @@ steps per revolution; 16 elements at 16,384 steps until 2026-11-29 evening, them
 few tenths of a percent off in space and time). For each setting: the largest true error of peak
 stress, the share of speeds whose true error is at most the estimate, and the median
 estimate / true.
-Every case solves its own companions here (the sweep would share them otherwise,
-``ced.auto.sweep_estimate``): this validates the companions' estimate itself;
+Every case solves its own companions here (``outputs.error_estimate_sharing: false``; the sweep
+would share them otherwise, ``ced.auto.sweep_estimate``): this validates the companions' estimate itself;
 ``estimate_sharing.py`` validates the shared one.
 Results go to ``benchmarks/estimate_honesty.json``; docs/accuracy.md quotes them.
 
@@ -26,7 +26,6 @@ import single_thread  # noqa: F401,E402  (before numpy: one BLAS thread)
 import numpy as np  # noqa: E402
 
 import sweep  # noqa: E402
-from ced.auto import sweep_estimate  # noqa: E402
 from ced.simulation.simulate import _case_peak, simulate  # noqa: E402
 
 SPEEDS = sweep.SPEEDS
@@ -43,14 +42,14 @@ OUT = Path(__file__).with_name("estimate_honesty.json")
 def scenes(setting: tuple[int, int, int], estimate: bool) -> list[dict]:
     elements, modes, steps = setting
     return [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(speed)},
-             "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": estimate},
+             "outputs": {**sweep.REFERENCE_SCENE["outputs"], "error_estimate": estimate,
+                         "error_estimate_sharing": False},  # every case its own companions
              "discretization": {"elements_per_link": elements, "modes_per_link": modes},
              "time": {"revolutions": 2, "steps_per_revolution": steps, "start": "undeformed"}}
             for speed in SPEEDS]
 
 
 def main() -> None:
-    sweep_estimate.MIN_CASES = 10**9  # every case its own companions (module docstring)
     thin = [{**s, "outputs": {**s["outputs"], "every": 64}} for s in scenes(REFERENCE, False)]
     reference = np.concatenate([_case_peak(simulate(thin[i:i + CHUNK]).peak_stress.values)
                                 for i in range(0, len(thin), CHUNK)])

@@ -41,13 +41,11 @@ sys.path.insert(0, str(HERE / "peer"))
 
 import sweep  # noqa: E402
 
-from ced.auto import sweep_estimate  # noqa: E402
 from ced.simulation.dataset import ESTIMATE_SOURCES  # noqa: E402
 from ced.simulation.simulate import simulate  # noqa: E402
 
 RESULTS = HERE / "results.json"
 PEER_RESULTS = HERE / "peer_results.json"
-SHARED_MIN_CASES = sweep_estimate.MIN_CASES
 
 
 def log(msg: str) -> None:
@@ -110,8 +108,8 @@ def reference_refinement(reference: np.ndarray, reference_stress: np.ndarray,
 def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
     """Wall time per case of ``simulate`` on the sweep without ``error_estimate``, with it
     (companions shared along the sweep, the default: ``ced.auto.sweep_estimate``), and with
-    every case solving its own companions (sharing switched off here), measured in this
-    process, interleaved, best of two each."""
+    every case solving its own companions (``outputs.error_estimate_sharing: false``),
+    measured in this process, interleaved, best of two each."""
     elements, modes, steps = setting
     runs = ("without", "shared", "own")
     times = dict.fromkeys(runs, np.inf)
@@ -119,18 +117,17 @@ def estimate_cost(setting: tuple[int, int, int], size: int = 100) -> dict:
         for run in runs:
             scenes = [{**sweep.REFERENCE_SCENE, "drive": {"speed": float(s)},
                        "outputs": {**sweep.REFERENCE_SCENE["outputs"],
-                                   "error_estimate": run != "without"},
+                                   "error_estimate": run != "without",
+                                   "error_estimate_sharing": run == "shared"},
                        "discretization": {"elements_per_link": elements,
                                           "modes_per_link": modes},
                        "time": {"revolutions": 2, "steps_per_revolution": steps,
                                 "start": "undeformed"}}
                       for s in np.linspace(90.0, 110.0, size)]
             ds = None  # the last call's dataset, released first (sweep.timed_batch)
-            sweep_estimate.MIN_CASES = 10**9 if run == "own" else SHARED_MIN_CASES
             t0 = time.perf_counter()
             ds = simulate(scenes)
             times[run] = min(times[run], (time.perf_counter() - t0) / size)
-            sweep_estimate.MIN_CASES = SHARED_MIN_CASES
             assert ("error_estimate" in ds) == (run != "without")
             if run == "shared":
                 source = ds.error_estimate_source.values

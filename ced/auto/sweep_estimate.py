@@ -43,11 +43,21 @@ from collections.abc import Callable
 import numpy as np
 
 from ..problem.status import STATUS_FLAGS
-from .discretization import (STRIDE, sweep_key, bracket, interpolated_error,
-                             representatives, sweeps, unverified)
+from .discretization import (sweep_key, bracket, interpolated_error, representatives, sweeps,
+                             unverified)
 
-__all__ = ["sweep_estimates", "shared_sweeps", "STRIDE", "MARGIN", "MIN_CASES", "MAX_GAP",
-           "OWN_FLAGS"]
+__all__ = ["sweep_estimates", "shared_sweeps", "stride", "STRIDE", "MARGIN", "MIN_CASES",
+           "MAX_GAP", "OWN_FLAGS"]
+
+#: Every STRIDE-th case of a sweep solves its companions (closer in a small sweep:
+#: :func:`stride`). Chosen 2026-11-30 by replaying the rule on the own estimates and true errors
+#: of 24 sweep × setting pairs (the five sweeps of the module docstring at 2 to 10 settings,
+#: and two more sweeps solved for the choice: the reference four-bar from ``quasi_static``
+#: over 60–140 rad/s, and with an aluminium 4 × 12 mm coupler over 40–100 rad/s). At 8, 12 and
+#: 16 the shared estimate bounded the true error at 96–100 %, 97–100 % and 98–100 % of each
+#: pair's speeds; at 20, 90–100 %; 16 solves companions for 11–12 cases of 100 on average
+#: against 18–22 at 8 (``discretization: auto``'s stride, used until then).
+STRIDE = 16
 
 #: A case between two climbers is estimated at MARGIN × the larger of their estimates. Less
 #: than ``discretization: auto``'s :data:`~ced.auto.discretization.INTERPOLATION_MARGIN` (3),
@@ -58,10 +68,12 @@ __all__ = ["sweep_estimates", "shared_sweeps", "STRIDE", "MARGIN", "MIN_CASES", 
 #: estimates 1.4–2.2 times the case's own at the median; at 3, 3.1–4.6 times; at 1, bisection
 #: had a quarter to three quarters of the cases solve companions.
 MARGIN = 1.5
-#: Fewest cases of a sweep that share: three climbers, so that leave-one-out can check one.
-MIN_CASES = 2 * STRIDE + 1
+#: Fewest cases of a sweep that share: three climbers at every 8th case, so that leave-one-out
+#: can check one.
+MIN_CASES = 17
 #: Widest gap between two climbers, relative to the lower one's speed: the measured sweeps'
-#: gaps reached 24 % at :data:`STRIDE` (40–160 rad/s, 100 speeds).
+#: gaps reached 24 % at every 8th case (40–160 rad/s, 100 speeds); wider gaps at
+#: :data:`STRIDE` are bisected.
 MAX_GAP = 0.25
 #: Status flags of a case that solves its own companions: its error need not be like its
 #: neighbours' in speed. Not ``resonant``: over two revolutions from rest a resonance builds
@@ -72,6 +84,23 @@ MAX_GAP = 0.25
 OWN_FLAGS = (STATUS_FLAGS["near_singular"] | STATUS_FLAGS["parametrically_unstable"]
              | STATUS_FLAGS["buckled"] | STATUS_FLAGS["failed"]
              | STATUS_FLAGS["not_assemblable"])
+
+
+def stride(n: int) -> int:
+    """Every how many cases of a sweep of ``n`` cases solve their companions.
+
+    Parameters
+    ----------
+    n : int
+        Cases of the sweep, at least :data:`MIN_CASES`.
+
+    Returns
+    -------
+    int
+        :data:`STRIDE`, or less so that at least three cases climb (leave-one-out needs one
+        between two others).
+    """
+    return min(STRIDE, (n - 1) // 2)
 
 
 def shared_sweeps(scenes: list[dict], status: np.ndarray, known) -> list[np.ndarray]:
@@ -91,12 +120,14 @@ def shared_sweeps(scenes: list[dict], status: np.ndarray, known) -> list[np.ndar
     -------
     list of numpy.ndarray
         Per sweep its cases (indices into ``scenes``) by increasing speed; only sweeps of at
-        least :data:`MIN_CASES` cases of distinct speeds that ask for an estimate, start from
+        least :data:`MIN_CASES` cases of distinct speeds that ask for an estimate and let it
+        be shared (``outputs.error_estimate_sharing``), start from
         a transient, are not resolved by ``discretization: auto`` and carry none of
         :data:`OWN_FLAGS`.
     """
     eligible = [i for i, s in enumerate(scenes)
-                if s["outputs"]["error_estimate"] and i not in known
+                if s["outputs"]["error_estimate"] and s["outputs"]["error_estimate_sharing"]
+                and i not in known
                 and isinstance(s["discretization"], dict)
                 and s["discretization"]["formulation"] != "rigid"
                 and s["time"]["start"] != "periodic" and not int(status[i]) & OWN_FLAGS]
@@ -154,7 +185,7 @@ def sweep_estimates(scenes: list[dict], status: np.ndarray, known: dict[int, flo
     """
     groups = shared_sweeps(scenes, status, set(known) | set(alone))
     speeds = [np.array([scenes[i]["drive"]["speed"] for i in g], float) for g in groups]
-    climbed = [set(representatives(len(g), STRIDE).tolist()) for g in groups]
+    climbed = [set(representatives(len(g), stride(len(g))).tolist()) for g in groups]
     solved = dict(known)
     while True:
         waiting = {int(g[p]): np.nan for g, c in zip(groups, climbed)

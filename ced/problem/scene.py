@@ -181,6 +181,7 @@ BLOCKS: dict[str, dict[str, tuple[Any, Any]]] = {
         "stations": (Int(3, 10_001, odd=True, hint="odd so that 0.5 is a station"), 11),
         "every": (Int(1, None, hint="write every n-th step"), 1),
         "error_estimate": (Bool(), True),
+        "error_estimate_sharing": (Bool(), True),
     },
 }
 
@@ -313,6 +314,11 @@ MEANINGS: dict[str, str] = {
                               "start transient: two, one at twice the steps, shared along a "
                               "speed sweep of 17 or more cases run together: "
                               "`error_estimate_source`)",
+    "outputs.error_estimate_sharing": "let a start transient's error estimate come from its "
+                                      "neighbours in a speed sweep (every 16th case solves the "
+                                      "companions, the cases between get 1.5 times the larger "
+                                      "of their two neighbours'); false: this case solves its "
+                                      "own, at about three times the cost of its solve",
     "tolerance": "target relative error of the automatic choices (effects: auto, "
                  "discretization: auto)",
 }

@@ -53,7 +53,8 @@ def test_minimal_four_bar_gets_documented_defaults():
                          "periodic_solver": "shooting", "collocation_points": "auto",
                          "spectral_tail": 5e-3}
     assert s["modal"] is None
-    assert s["outputs"] == {"stations": 11, "every": 1, "error_estimate": True}
+    assert s["outputs"] == {"stations": 11, "every": 1, "error_estimate": True,
+                            "error_estimate_sharing": True}
     assert s["tolerance"] == 1e-3
     assert set(s["links"]) == {"crank", "coupler", "rocker"}
     for link in s["links"].values():
