@@ -17,7 +17,7 @@ start is timed alike (its ladders vary smoothly in speed), and again with
 ``periodic_solver: spectral`` (a Fourier series: no time ladder, its tail bounded instead; its
 true error is measured at all 100 speeds). The marched settings' true error is
 measured at six speeds (the ends, the speed whose ladder sets the steps, and three more)
-against ced's converged value (16 elements, every FE DOF, 32768 steps per revolution), on peak
+against ced's converged value (32 elements, every FE DOF, 32768 steps per revolution), on peak
 stress (what ``tolerance`` is about) and on peak coupler strain (what ``run.py`` compares).
 """
 from __future__ import annotations

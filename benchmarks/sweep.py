@@ -7,7 +7,7 @@ flexible coupler; no gravity, no damping; two revolutions from the undeformed st
 |outer-fibre bending strain| over time and the coupler's 21 stations.
 
 :func:`cheapest` finds ced's cheapest setting whose peak strain is within 1 % of ced's own
-converged value (16 elements, 32768 steps per revolution, all FE DOFs) at **every** speed,
+converged value (32 elements, 32768 steps per revolution, all FE DOFs) at **every** speed,
 timing each candidate as one batch of the 100 cases (one core, best of ``repeat``).
 :func:`batch_scaling` times that setting in batches of 100 to 10,000 cases.
 """

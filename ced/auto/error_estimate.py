@@ -42,9 +42,10 @@ Measured on the convergence study (``config/studies/convergence.yaml``, issue 6)
 
 Not estimated: the modal truncation of ``modes_per_link`` — with static load vectors it is
 below 1e-5 in the periodic steady state of the reference four-bar even with one mode per link,
-but a start transient rings in the higher modes: from ``undeformed``, over 90–110 rad/s, four
-modes per link leave up to 1.4 % of peak coupler strain and eight modes 0.7 %, as every FE DOF
-does at 8 elements (``benchmarks/results.json``); ``discretization: auto`` measures it
+but a start transient rings in the higher modes: from ``undeformed``, over 90–110 rad/s, at 8
+elements and 1,280 steps per revolution, four modes per link are up to 0.93 % off the
+converged peak coupler strain, eight modes 0.51 % and every FE DOF 0.48 %
+(``benchmarks/results.json``, ``ced.candidates``); ``discretization: auto`` measures it
 against the full mesh (``ced.auto.discretization``, stage 3); and model error (beam vs plane
 stress), which the fidelity ladder measures.
 """
