@@ -14,6 +14,7 @@ import xarray as xr  # noqa: E402
 from ..io import open_dataset  # noqa: E402
 from ..problem.mechanism import topology  # noqa: E402
 from ..problem.status import status_names  # noqa: E402
+from ..simulation.dataset import ESTIMATE_SOURCES  # noqa: E402
 from .safe_speed import NOT_CREDIBLE, credibility  # noqa: E402
 
 __all__ = ["overview_figure", "campbell_figure", "representative_geometry", "save",
@@ -230,18 +231,23 @@ ESTIMATE_MARKS = (0.01, 0.02, 0.05)
 def estimate_figure(paths: list[str], png: str | Path, svg: str | Path | None = None) -> None:
     """How accurate the study is, by its own estimate: the cumulative distribution of
     ``error_estimate`` over the cases with status ok, one curve a family and one for all; the
-    title gives the share within each of :data:`ESTIMATE_MARKS`.
+    title gives the share within each of :data:`ESTIMATE_MARKS`, and how many of the estimates
+    a case took from its neighbours in speed (``error_estimate_source``: a start transient's
+    sweep, :mod:`ced.auto.sweep_estimate`), which are looser than a case's own.
 
     Flagged cases are left out: their flag, not the estimate, decides whether to trust them.
     """
     fig, ax = plt.subplots(figsize=(7.5, 4.0), constrained_layout=True)
-    everything = []
+    everything, shared = [], 0
     for i, path in enumerate(paths):
         with open_dataset(path) as ds:
             if "error_estimate" not in ds:
                 continue
             ok = np.nan_to_num(ds.status.values) == 0
             values = ds.error_estimate.values[ok]
+            if "error_estimate_source" in ds:
+                source = ds.error_estimate_source.values[ok][np.isfinite(values)]
+                shared += int((source == ESTIMATE_SOURCES["sweep_neighbours"]).sum())
             values = np.sort(values[np.isfinite(values)])
             family = str(ds.family.values[0])
         if not len(values):
@@ -254,8 +260,11 @@ def estimate_figure(paths: list[str], png: str | Path, svg: str | Path | None = 
         ax.step(np.maximum(total, 1e-7), np.arange(1, len(total) + 1) / len(total),
                 where="post", color="k", lw=2.0, label=f"all ({len(total)})")
         shares = ", ".join(f"{np.mean(total <= m):.0%} ≤ {m:.0%}" for m in ESTIMATE_MARKS)
-        ax.set_title(f"error estimate of the {len(total)} unflagged cases: {shares}",
-                     fontsize=9)
+        title = f"error estimate of the {len(total)} unflagged cases: {shares}"
+        if shared:
+            title += (f"\n{shared} of them from the case's neighbours in speed "
+                      "(error_estimate_source: looser than a case's own)")
+        ax.set_title(title, fontsize=9)
     for m in ESTIMATE_MARKS:
         ax.axvline(m, color="0.5", lw=0.8, ls="--")
     ax.set_xscale("log")

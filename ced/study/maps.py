@@ -44,7 +44,8 @@ HARMONIC_ORDER = 20
 
 #: Per-case variables carried over unchanged when present.
 _PER_CASE = ("peak_deflection", "peak_stress", "dynamic_amplification",
-             "floquet_multiplier_max", "error_estimate", "solve_time", "status", "message")
+             "floquet_multiplier_max", "error_estimate", "error_estimate_source", "solve_time",
+             "status", "message")
 
 #: Candidate grid dimensions, in the order of the unstacked arrays.
 GRID_ORDER = ("crank", "coupler", "rocker", "rocker_arm", "rocker_arm_angle", "coupler_arm",

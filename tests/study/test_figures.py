@@ -167,6 +167,29 @@ def test_estimate_figure_counts_the_unflagged_cases(maps):
             ok = ds.status.values == 0
             unflagged += int(np.isfinite(ds.error_estimate.values[ok]).sum())
     assert f"the {unflagged} unflagged cases" in png.with_suffix(".svg").read_text()
+    assert "neighbours in speed" not in png.with_suffix(".svg").read_text()  # all own here
+
+
+def test_estimate_figure_says_how_many_estimates_came_from_neighbours(maps, tmp_path):
+    """A start transient's speed sweep shares its companions (ced.auto.sweep_estimate): the
+    figure where the study's accuracy is judged says how many unflagged estimates are shared."""
+    from ced.simulation.dataset import ESTIMATE_SOURCES
+    from ced.study.figures import estimate_figure
+    _, out = maps
+    with open_dataset(out["crank_rocker"][0]) as ds:
+        ds = ds.load()
+    assert (ds.error_estimate_source.values == ESTIMATE_SOURCES["companions"]).all()
+    ok = np.flatnonzero((ds.status.values == 0) & np.isfinite(ds.error_estimate.values))
+    source = ds.error_estimate_source.values.copy()
+    source[ok[::2]] = ESTIMATE_SOURCES["sweep_neighbours"]
+    source[ds.status.values != 0] = ESTIMATE_SOURCES["sweep_neighbours"]  # flagged: not counted
+    ds["error_estimate_source"] = ds.error_estimate_source.copy(data=source)
+    path = tmp_path / "shared.nc"
+    ds.to_netcdf(path)
+    png = tmp_path / "estimate.png"
+    estimate_figure([str(path)], png, png.with_suffix(".svg"))
+    assert f"{len(ok[::2])} of them from the case's neighbours in speed" in (
+        png.with_suffix(".svg").read_text())
 
 
 def test_blown_up_flagged_cases_are_counted_above_the_axis():
