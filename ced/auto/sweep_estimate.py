@@ -51,9 +51,10 @@ __all__ = ["sweep_estimates", "shared_sweeps", "stride", "STRIDE", "MARGIN", "MI
 
 #: Every STRIDE-th case of a sweep solves its companions (closer in a small sweep:
 #: :func:`stride`). Chosen 2026-11-30 by replaying the rule on the own estimates and true errors
-#: of 24 sweep × setting pairs (the five sweeps of the module docstring at 2 to 10 settings,
-#: and two more sweeps solved for the choice: the reference four-bar from ``quasi_static``
-#: over 60–140 rad/s, and with an aluminium 4 × 12 mm coupler over 40–100 rad/s). At 8, 12 and
+#: of 24 sweep × setting pairs (the first five sweeps of the module docstring at 2 to 10
+#: settings, their estimates solved at the safety factor 4 and rescaled to 2.5, and two sweeps
+#: solved for the choice: the reference four-bar from ``quasi_static`` over 60–140 rad/s, the
+#: sixth below, and with an aluminium 4 × 12 mm coupler over 40–100 rad/s). At 8, 12 and
 #: 16 the shared estimate bounded the true error at 96–100 %, 97–100 % and 98–100 % of each
 #: pair's speeds; at 20, 90–100 %; 16 solves companions for 11–12 cases of 100 on average
 #: against 18–22 at 8 (``discretization: auto``'s stride, used until then).
